@@ -1,0 +1,12 @@
+"""warp_sim: physically based animation in NVIDIA Warp kernels, written to USD stages.
+
+The public API: build a Scene, run it with a Simulator, read the State or the USD stage.
+"""
+from .guards import SimulationDiverged
+from .integrators import INTEGRATORS
+from .model import Model, State
+from .scene import Scene
+from .simulator import Simulator
+
+__version__ = "0.1.0"
+__all__ = ["Scene", "Simulator", "Model", "State", "SimulationDiverged", "INTEGRATORS", "__version__"]

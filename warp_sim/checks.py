@@ -1,0 +1,98 @@
+"""Input validation: every bad value raises ValueError naming the argument, the value and what is valid."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def _show(value) -> str:
+    text = np.array2string(np.asarray(value), threshold=6, edgeitems=2) if np.ndim(value) else repr(value)
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
+def fail(name: str, value, valid: str) -> ValueError:
+    """The ValueError for argument `name` holding `value`, saying what would be valid."""
+    return ValueError(f"{name}={_show(value)} is invalid: {valid}")
+
+
+def finite_array(name: str, value, shape: tuple) -> np.ndarray:
+    """A float64 copy of `value` with the given shape (-1 = any length), all finite."""
+    try:
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise fail(name, value, f"expected numbers in an array of shape {shape}") from None
+    if array.ndim != len(shape) or any(s != -1 and s != n for s, n in zip(shape, array.shape)):
+        shown = tuple("N" if s == -1 else s for s in shape)
+        raise fail(name, value, f"expected shape {shown}, got {array.shape}")
+    bad = np.argwhere(~np.isfinite(array))
+    if len(bad):
+        raise fail(name, value, f"every entry must be finite; entry {tuple(int(j) for j in bad[0])} is {array[tuple(bad[0])]}")
+    return array
+
+
+def vec3(name: str, value) -> np.ndarray:
+    """A finite 3-vector."""
+    return finite_array(name, value, (3,))
+
+
+def unit_vec3(name: str, value) -> np.ndarray:
+    """A finite non-zero 3-vector, normalised."""
+    vector = vec3(name, value)
+    length = float(np.linalg.norm(vector))
+    if length == 0.0:
+        raise fail(name, value, "a direction must be non-zero")
+    return vector / length
+
+
+def scalar(name: str, value, low: float | None = None, high: float | None = None,
+           low_open: bool = False) -> float:
+    """A finite real number in [low, high] (or (low, high] with low_open)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise fail(name, value, "expected a real number") from None
+    if not math.isfinite(number):
+        raise fail(name, value, "must be finite")
+    if low is not None and (number < low or (low_open and number == low)):
+        raise fail(name, value, f"must be {'>' if low_open else '>='} {low}" + (f" and <= {high}" if high is not None else ""))
+    if high is not None and number > high:
+        raise fail(name, value, f"must be <= {high}" + (f" and {'>' if low_open else '>='} {low}" if low is not None else ""))
+    return number
+
+
+def per_element(name: str, value, count: int, low: float, low_open: bool = False) -> np.ndarray:
+    """A scalar or a length-`count` array, finite and >= low (> low with low_open), as a float64 array."""
+    if np.ndim(value) == 0:
+        return np.full(count, scalar(name, value, low=low, low_open=low_open))
+    array = finite_array(name, value, (count,))
+    bad = np.flatnonzero(array <= low if low_open else array < low)
+    if len(bad):
+        raise fail(name, value, f"every entry must be {'>' if low_open else '>='} {low}; entry {bad[0]} is {array[bad[0]]}")
+    return array
+
+
+def indices(name: str, value, count: int, shape: tuple) -> np.ndarray:
+    """Integer indices in [0, count) with the given shape, as int64."""
+    array = np.asarray(value)
+    if array.size == 0:
+        array = array.reshape([0 if s == -1 else s for s in shape])
+    if not (np.issubdtype(array.dtype, np.integer) or array.size == 0):
+        if not np.issubdtype(array.dtype, np.floating) or not np.all(np.isfinite(array)) or np.any(array != np.round(array)):
+            raise fail(name, value, "expected integer indices")
+    array = array.astype(np.int64)
+    if array.ndim != len(shape) or any(s != -1 and s != n for s, n in zip(shape, array.shape)):
+        shown = tuple("K" if s == -1 else s for s in shape)
+        raise fail(name, value, f"expected shape {shown}, got {array.shape}")
+    bad = np.argwhere((array < 0) | (array >= count))
+    if len(bad):
+        where = tuple(int(j) for j in bad[0])
+        raise fail(name, value, f"indices must lie in [0, {count}); entry {where} is {array[where]}")
+    return array
+
+
+def choice(name: str, value, options) -> str:
+    """One of the named options."""
+    if value not in options:
+        raise fail(name, value, f"expected one of {', '.join(repr(o) for o in options)}")
+    return value

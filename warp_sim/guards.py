@@ -1,0 +1,66 @@
+"""Divergence guards: non-finite or runaway states stop the run with SimulationDiverged.
+
+The check runs on the device after every step and records the first bad step and
+element without a host synchronisation; the host reads the record when asked
+(every ``step()`` call, every frame of ``run()``), so the error names the exact
+step even when read a frame later.
+"""
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .kernels import guards as guard_kernels
+
+NO_RECORD = np.iinfo(np.int32).max
+REASONS = {0: "non-finite position", 1: "non-finite velocity", 2: "speed above max_speed"}
+
+
+class SimulationDiverged(RuntimeError):
+    """A simulation went non-finite or exceeded its bounds.
+
+    Attributes: step (1-based index of the first bad step), time [s] at its end,
+    component (e.g. "particles"), element (index within the component), reason.
+    """
+
+    def __init__(self, step: int, time: float, component: str, element: int, reason: str, detail: str = ""):
+        self.step, self.time, self.component, self.element, self.reason = step, time, component, element, reason
+        super().__init__(f"simulation diverged at step {step} (t = {time:.6g} s): {component} element "
+                         f"{element}: {reason}{detail}")
+
+
+class Guard:
+    """Per-component device records of the first bad step, with the host-side check."""
+
+    def __init__(self, components, max_speed: float, scalar, device):
+        self.components = list(components)
+        self.max_speed = scalar(max_speed)
+        self.device = device
+        self.records = [(wp.full(1, NO_RECORD, dtype=wp.int32, device=device),
+                         wp.full(1, NO_RECORD, dtype=wp.int32, device=device)) for _ in self.components]
+        self.step_times: dict[int, float] = {}
+
+    def record(self, state, step: int, time: float) -> None:
+        """Launch the checks for the state after ``step`` (ending at ``time``); no sync."""
+        self.step_times[step] = time
+        for component, (first_step, first_key) in zip(self.components, self.records):
+            x, v = component.guard_arrays(state)
+            wp.launch(guard_kernels.check_finite_and_bounded, dim=x.shape[0], device=self.device,
+                      inputs=[x, v, self.max_speed, step, first_step, first_key])
+
+    def raise_if_diverged(self, state) -> None:
+        """Read the records (a device sync) and raise SimulationDiverged for the earliest bad step."""
+        found = []
+        for component, (first_step, first_key) in zip(self.components, self.records):
+            step = int(first_step.numpy()[0])
+            if step != NO_RECORD:
+                found.append((step, component, int(first_key.numpy()[0])))
+        if not found:
+            self.step_times.clear()
+            return
+        step, component, key = min(found, key=lambda item: item[0])
+        element, reason = divmod(key, 4)
+        x, v = (np.asarray(a.numpy()[element], dtype=np.float64) for a in component.guard_arrays(state))
+        detail = f" (now x = {np.array2string(x, precision=4)} m, v = {np.array2string(v, precision=4)} m/s)"
+        raise SimulationDiverged(step, self.step_times.get(step, float("nan")), component.name, element,
+                                 REASONS[reason], detail)

@@ -1,0 +1,136 @@
+"""The ODE solvers, written once over the flat state and the Dynamics derivative.
+
+Each solver advances ``state_in`` at time t by h seconds into ``state_out``
+(a different State of the same layout). Scratch states are allocated once, when
+the solver is made, never per step.
+"""
+from __future__ import annotations
+
+import warp as wp
+
+from . import checks
+from .dynamics import Dynamics
+from .kernels import integrate
+from .model import State
+
+
+class Integrator:
+    """Base class: ``step(state_in, state_out, t, h)``; ``order`` is the global order of accuracy."""
+
+    name = ""
+    order = 0
+
+    def __init__(self, dynamics: Dynamics):
+        self.dynamics = dynamics
+        self.scalar = dynamics.model.scalar
+        self.device = dynamics.model.device
+
+    def axpy(self, y, h: float, dy, out) -> None:
+        """out = y + h dy over flat buffers (or blocks) of equal length."""
+        if y.shape[0]:
+            wp.launch(integrate.axpy, dim=y.shape[0], device=self.device, inputs=[y, self.scalar(h), dy, out])
+
+    def step(self, state_in: State, state_out: State, t: float, h: float) -> None:
+        raise NotImplementedError
+
+
+class Euler(Integrator):
+    """Explicit Euler: y1 = y0 + h f(t, y0). First order."""
+
+    name, order = "euler", 1
+
+    def __init__(self, dynamics):
+        super().__init__(dynamics)
+        self.k = dynamics.new_state()
+
+    def step(self, state_in, state_out, t, h):
+        self.dynamics.derivative(state_in, t, self.k)
+        self.axpy(state_in.y, h, self.k.y, state_out.y)
+
+
+class Midpoint(Integrator):
+    """Midpoint (second-order Runge-Kutta): an Euler half step, then a full step with the slope there."""
+
+    name, order = "midpoint", 2
+
+    def __init__(self, dynamics):
+        super().__init__(dynamics)
+        self.k = dynamics.new_state()
+        self.mid = dynamics.new_state()
+
+    def step(self, state_in, state_out, t, h):
+        self.dynamics.derivative(state_in, t, self.k)
+        self.axpy(state_in.y, 0.5 * h, self.k.y, self.mid.y)
+        self.dynamics.derivative(self.mid, t + 0.5 * h, self.k)
+        self.axpy(state_in.y, h, self.k.y, state_out.y)
+
+
+class RK4(Integrator):
+    """Classical fourth-order Runge-Kutta: four slopes, weighted 1/6, 1/3, 1/3, 1/6."""
+
+    name, order = "rk4", 4
+
+    def __init__(self, dynamics):
+        super().__init__(dynamics)
+        self.k = [dynamics.new_state() for _ in range(4)]
+        self.trial = dynamics.new_state()
+
+    def step(self, state_in, state_out, t, h):
+        k1, k2, k3, k4 = self.k
+        f = self.dynamics.derivative
+        f(state_in, t, k1)
+        self.axpy(state_in.y, 0.5 * h, k1.y, self.trial.y)
+        f(self.trial, t + 0.5 * h, k2)
+        self.axpy(state_in.y, 0.5 * h, k2.y, self.trial.y)
+        f(self.trial, t + 0.5 * h, k3)
+        self.axpy(state_in.y, h, k3.y, self.trial.y)
+        f(self.trial, t + h, k4)
+        n = state_in.y.shape[0]
+        wp.launch(integrate.rk4_combine, dim=n, device=self.device,
+                  inputs=[state_in.y, self.scalar(h), k1.y, k2.y, k3.y, k4.y, state_out.y])
+
+
+class SymplecticEuler(Integrator):
+    """Semi-implicit Euler: velocities from forces at the old positions, then positions
+    from the new velocities. First order, symplectic: bounded energy error."""
+
+    name, order = "symplectic_euler", 1
+
+    def __init__(self, dynamics):
+        super().__init__(dynamics)
+        self.k = dynamics.new_state()
+
+    def step(self, state_in, state_out, t, h):
+        d = self.dynamics
+        d.velocity_derivative(state_in, t, self.k)
+        self.axpy(state_in.velocity, h, self.k.velocity, state_out.velocity)
+        d.position_derivative(state_in, state_out, self.k)
+        self.axpy(state_in.position, h, self.k.position, state_out.position)
+
+
+class VelocityVerlet(Integrator):
+    """Velocity Verlet: half kick, drift, half kick with the forces at the new positions.
+    Second order, symplectic; velocity-dependent forces use the half-step velocity."""
+
+    name, order = "verlet", 2
+
+    def __init__(self, dynamics):
+        super().__init__(dynamics)
+        self.k = dynamics.new_state()
+
+    def step(self, state_in, state_out, t, h):
+        d = self.dynamics
+        d.velocity_derivative(state_in, t, self.k)
+        self.axpy(state_in.velocity, 0.5 * h, self.k.velocity, state_out.velocity)
+        d.position_derivative(state_in, state_out, self.k)
+        self.axpy(state_in.position, h, self.k.position, state_out.position)
+        d.velocity_derivative(state_out, t + h, self.k)
+        self.axpy(state_out.velocity, 0.5 * h, self.k.velocity, state_out.velocity)
+
+
+INTEGRATORS = {cls.name: cls for cls in (Euler, Midpoint, RK4, SymplecticEuler, VelocityVerlet)}
+
+
+def make_integrator(name: str, dynamics: Dynamics) -> Integrator:
+    """The solver called ``name`` (one of INTEGRATORS) for ``dynamics``."""
+    return INTEGRATORS[checks.choice("integrator", name, tuple(INTEGRATORS))](dynamics)

@@ -1,0 +1,14 @@
+"""Warp kernels, one file per topic; each file is one Warp module.
+
+Warp compiles and loads per module, so a scene that never launches a topic's
+kernels never compiles that topic. Every kernel is generic over precision: pass
+all float arrays and scalars of one precision (``wp.float32`` with ``wp.vec3f``
+or ``wp.float64`` with ``wp.vec3d``). Units are SI throughout.
+
+Topics:
+- ``integrate``: element-wise combinations of flat state buffers (the ODE solvers' arithmetic)
+- ``particles``: the particle derivative (gravity, drag, wind, accumulated forces)
+- ``springs``: the damped Hooke spring forces
+- ``planes``: particle-plane contacts, time-of-impact impulse and penalty responses
+- ``guards``: detection of non-finite or runaway states
+"""

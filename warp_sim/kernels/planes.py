@@ -1,0 +1,220 @@
+"""Particle-plane contacts: time-of-impact impulse response and penalty forces.
+
+A plane k is the set n_k . x = offset_k with unit normal n_k; particles of radius r
+are kept on the side n_k points to (n_k . x >= offset_k + r). Restitution e and
+friction mu of a contact are the plane's values, averaged with the particle's own
+where the particle has one (a negative particle value means "none").
+"""
+from typing import Any
+
+import warp as wp
+
+MAX_EVENTS = wp.constant(4)  # contacts resolved per particle per step before the final projection
+
+
+@wp.func
+def contact_material(plane_value: Any, particle_values: wp.array(dtype=Any), i: int):
+    """The plane's value, or the mean with particle i's value where it has one."""
+    value = plane_value
+    if particle_values.shape[0] > 0:
+        own = particle_values[i]
+        if own >= type(own)(0.0):
+            value = type(own)(0.5) * (value + own)
+    return value
+
+
+@wp.func
+def first_contact_time(d0: Any, b: Any, c: Any, horizon: Any):
+    """Earliest t in [0, horizon] where d0 + b t + c t^2 reaches 0 moving inwards; -1 if none.
+
+    d0: signed distance to the plane at t = 0 [m]; b: normal velocity [m/s];
+    c: half the normal acceleration [m/s^2]. A particle already touching or inside
+    (d0 <= 0) contacts at t = 0 only if it is moving or accelerating inwards.
+    """
+    zero = type(d0)(0.0)
+    none = type(d0)(-1.0)
+    result = none
+    if d0 <= zero:
+        if b < zero or (b == zero and c < zero):
+            result = zero
+    else:
+        end = d0 + (b + c * horizon) * horizon
+        if end <= zero or c > zero:
+            if c == zero:
+                if b < zero:
+                    result = -d0 / b
+            else:
+                disc = b * b - type(d0)(4.0) * c * d0
+                if disc >= zero:
+                    root = wp.sqrt(disc)
+                    q = type(d0)(-0.5) * (b - root)
+                    if b >= zero:
+                        q = type(d0)(-0.5) * (b + root)
+                    t1 = q / c
+                    t2 = none
+                    if q != zero:
+                        t2 = d0 / q
+                    if t1 >= zero and t1 <= horizon:
+                        result = t1
+                    if t2 >= zero and t2 <= horizon and (result < zero or t2 < result):
+                        result = t2
+    return result
+
+
+@wp.func
+def coulomb_friction(vt: Any, max_change: Any):
+    """Reduce tangential velocity vt by at most max_change [m/s], stopping it rather than reversing it."""
+    speed = wp.length(vt)
+    out = vt * type(max_change)(0.0)
+    if speed > max_change:
+        out = vt * ((speed - max_change) / speed)
+    return out
+
+
+@wp.kernel
+def resolve_plane_impacts(
+    x_start: wp.array(dtype=Any),
+    v_start: wp.array(dtype=Any),
+    x: wp.array(dtype=Any),
+    v: wp.array(dtype=Any),
+    inv_mass: wp.array(dtype=Any),
+    radius: wp.array(dtype=Any),
+    particle_restitution: wp.array(dtype=Any),
+    particle_friction: wp.array(dtype=Any),
+    plane_normal: wp.array(dtype=Any),
+    plane_offset: wp.array(dtype=Any),
+    plane_restitution: wp.array(dtype=Any),
+    plane_friction: wp.array(dtype=Any),
+    h: Any,
+):
+    """Detect plane crossings over a step of h seconds and respond at the time of impact.
+
+    Over the step the particle moves from (x_start, v_start) with the constant
+    acceleration a = (v - v_start) / h, which is exact for uniform gravity. The
+    earliest crossing is found by solving the quadratic in time; the particle is put
+    there, its normal velocity reflected, v' = v - (1 + e)(v . n) n, its tangential
+    velocity reduced by Coulomb friction (mu times the normal impulse, never
+    reversing), and it travels the rest of the step, repeatedly. A particle pressed
+    onto a plane with no approach speed is in resting contact: the plane takes up
+    the normal acceleration and friction acts with the impulse that supports it.
+    No energy is added, and no particle ends the step inside a plane. x and v
+    (the integrator's end of step) are updated in place; pinned particles are skipped.
+    """
+    i = wp.tid()
+    if inv_mass[i] == type(h)(0.0):
+        return
+    zero = type(h)(0.0)
+    half = type(h)(0.5)
+    r = radius[i]
+    xs = x_start[i]
+    vs = v_start[i]
+    a = (v[i] - vs) / h
+    xe = x[i]
+    ve = v[i]
+    t = zero
+    touched = int(0)
+    for _event in range(MAX_EVENTS):
+        remaining = h - t
+        best = type(h)(-1.0)
+        best_k = int(-1)
+        for k in range(plane_normal.shape[0]):
+            n = plane_normal[k]
+            d0 = wp.dot(n, xs) - plane_offset[k] - r
+            tc = first_contact_time(d0, wp.dot(n, vs), half * wp.dot(n, a), remaining)
+            if tc >= zero and (best_k < 0 or tc < best):
+                best = tc
+                best_k = k
+        if best_k < 0:
+            break
+        touched = 1
+        n = plane_normal[best_k]
+        xs = xs + (vs + half * a * best) * best
+        xs = xs - n * (wp.dot(n, xs) - plane_offset[best_k] - r)
+        vs = vs + a * best
+        t = t + best
+        remaining = h - t
+        e = contact_material(plane_restitution[best_k], particle_restitution, i)
+        mu = contact_material(plane_friction[best_k], particle_friction, i)
+        vn = wp.dot(vs, n)
+        an = wp.dot(a, n)
+        resting_speed = type(h)(1e-6) * (wp.length(vs) + wp.abs(an) * h)
+        if vn < -resting_speed:
+            # impact: reflect the normal velocity, friction bounded by the normal impulse
+            vt = coulomb_friction(vs - vn * n, mu * (type(h)(1.0) + e) * (-vn))
+            vs = vt - e * vn * n
+        elif an < zero and remaining > zero:
+            # resting contact: the plane supports the normal acceleration for the rest of
+            # the step; friction acts with that impulse (static if it suffices, else kinetic)
+            support = -an * remaining
+            if vn < zero:
+                support = support - vn
+                vn = zero
+            vt0 = vs - wp.dot(vs, n) * n
+            vt_free = vt0 + (a - an * n) * remaining
+            vt_end = coulomb_friction(vt_free, mu * support)
+            vs = vt0 + vn * n
+            a = (vt_end - vt0) / remaining
+        xe = xs + (vs + half * a * remaining) * remaining
+        ve = vs + a * remaining
+    # final projection: no particle ends a step inside any plane
+    for k in range(plane_normal.shape[0]):
+        n = plane_normal[k]
+        depth = plane_offset[k] + r - wp.dot(n, xe)
+        if depth > zero:
+            touched = 1
+            xe = xe + depth * n
+            vn = wp.dot(ve, n)
+            if vn < zero:
+                ve = ve - vn * n
+    if touched != 0:
+        x[i] = xe
+        v[i] = ve
+
+
+@wp.kernel
+def plane_penalty_forces(
+    x: wp.array(dtype=Any),
+    v: wp.array(dtype=Any),
+    inv_mass: wp.array(dtype=Any),
+    radius: wp.array(dtype=Any),
+    particle_restitution: wp.array(dtype=Any),
+    particle_friction: wp.array(dtype=Any),
+    plane_normal: wp.array(dtype=Any),
+    plane_offset: wp.array(dtype=Any),
+    plane_restitution: wp.array(dtype=Any),
+    plane_friction: wp.array(dtype=Any),
+    stiffness: Any,
+    force: wp.array(dtype=Any),
+):
+    """Accumulate penalty forces: a spring and damper on the penetration depth.
+
+    f_n = max(0, k depth - c v_n) along n, with k the stiffness [N/m] and the damper
+    c = 2 zeta sqrt(k m) chosen so that an isolated contact rebounds with the
+    contact's restitution e (zeta = -ln e / sqrt(pi^2 + ln^2 e)). Friction opposes
+    the tangential velocity with magnitude min(mu f_n, c |v_t|): Coulomb when
+    sliding, viscous (slow creep) below the speed mu f_n / c. force: accumulator [N].
+    """
+    i = wp.tid()
+    w = inv_mass[i]
+    zero = type(stiffness)(0.0)
+    if w == zero:
+        return
+    mass = type(stiffness)(1.0) / w
+    total = x[i] * zero
+    for k in range(plane_normal.shape[0]):
+        n = plane_normal[k]
+        depth = plane_offset[k] + radius[i] - wp.dot(n, x[i])
+        if depth > zero:
+            e = wp.max(contact_material(plane_restitution[k], particle_restitution, i), type(stiffness)(1e-4))
+            log_e = wp.log(e)
+            zeta = -log_e / wp.sqrt(type(stiffness)(9.869604401089358) + log_e * log_e)
+            c = type(stiffness)(2.0) * zeta * wp.sqrt(stiffness * mass)
+            vn = wp.dot(v[i], n)
+            fn = wp.max(stiffness * depth - c * vn, zero)
+            vt = v[i] - vn * n
+            speed = wp.length(vt)
+            total = total + fn * n
+            if speed > zero:
+                mu = contact_material(plane_friction[k], particle_friction, i)
+                total = total - vt * (wp.min(mu * fn, c * speed) / speed)
+    wp.atomic_add(force, i, total)

@@ -1,0 +1,171 @@
+"""Scene: the host-side description a user builds (numpy, validated on entry). SI units, Y up."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import checks
+
+PRECISIONS = ("float32", "float64")
+
+
+@dataclass(frozen=True)
+class ParticleGroup:
+    """The particles one add_particles call made: global indices start .. start + count - 1."""
+    name: str
+    start: int
+    count: int
+    color: tuple
+
+
+@dataclass(frozen=True)
+class Plane:
+    """The static plane normal . x = offset; bodies stay on the side the unit normal points to."""
+    name: str
+    normal: np.ndarray
+    offset: float
+    restitution: float
+    friction: float
+
+
+class Scene:
+    """What to simulate: particles, springs, planes, and the global forces.
+
+    gravity [m/s^2]; drag: linear drag coefficient on every particle [N s/m], the
+    force -drag (v - wind); wind: the air's velocity [m/s]; precision: "float32"
+    or "float64" for the whole simulated state.
+    """
+
+    def __init__(self, gravity=(0.0, -9.81, 0.0), precision: str = "float32", drag: float = 0.0,
+                 wind=(0.0, 0.0, 0.0)):
+        self.gravity = checks.vec3("gravity", gravity)
+        self.precision = checks.choice("precision", precision, PRECISIONS)
+        self.drag = checks.scalar("drag", drag, low=0.0)
+        self.wind = checks.vec3("wind", wind)
+        self.particle_groups: list[ParticleGroup] = []
+        self.planes: list[Plane] = []
+        self._particles: dict[str, list[np.ndarray]] = {key: [] for key in (
+            "position", "velocity", "mass", "radius", "pinned", "restitution", "friction")}
+        self._springs: dict[str, list[np.ndarray]] = {key: [] for key in (
+            "pairs", "stiffness", "damping", "rest_length")}
+
+    # particles -----------------------------------------------------------------
+    @property
+    def particle_count(self) -> int:
+        return sum(group.count for group in self.particle_groups)
+
+    def particle_array(self, key: str) -> np.ndarray:
+        """One per-particle quantity of every group, concatenated: position, velocity (N, 3) [m, m/s];
+        mass [kg], radius [m], pinned (bool), restitution, friction (-1 where a particle has none)."""
+        chunks = self._particles[key]
+        if chunks:
+            return np.concatenate(chunks)
+        return np.zeros((0, 3) if key in ("position", "velocity") else 0)
+
+    def add_particles(self, positions, velocities=None, mass=1.0, radius=0.01, pinned=None,
+                      restitution=None, friction=None, name: str | None = None,
+                      color=(0.9, 0.5, 0.1)) -> np.ndarray:
+        """Add point masses; returns their global indices.
+
+        positions, velocities: (N, 3) [m], [m/s]; mass [kg] and radius [m]: one value or
+        one per particle; pinned: indices into this call's positions of particles with
+        infinite mass, which never move; restitution in [0, 1] and friction >= 0, where
+        given, are averaged with each plane's. name and color (RGB 0..1) are for USD.
+        """
+        x = checks.finite_array("positions", positions, (-1, 3))
+        count = len(x)
+        if count == 0:
+            raise checks.fail("positions", positions, "need at least one particle")
+        v = np.zeros_like(x) if velocities is None else checks.finite_array("velocities", velocities, (count, 3))
+        m = checks.per_element("mass", mass, count, low=0.0, low_open=True)
+        r = checks.per_element("radius", radius, count, low=0.0)
+        pin = np.zeros(count, dtype=bool)
+        if pinned is not None:
+            pin[checks.indices("pinned", pinned, count, (-1,))] = True
+            v[pin] = 0.0
+        e = np.full(count, -1.0) if restitution is None else checks.per_element("restitution", restitution, count, low=0.0)
+        if restitution is not None and e.max() > 1.0:
+            raise checks.fail("restitution", restitution, "must lie in [0, 1]")
+        mu = np.full(count, -1.0) if friction is None else checks.per_element("friction", friction, count, low=0.0)
+        rgb = tuple(checks.finite_array("color", color, (3,)))
+        start = self.particle_count
+        label = name or f"group{len(self.particle_groups)}"
+        if any(group.name == label for group in self.particle_groups):
+            raise checks.fail("name", label, "particle group names must be unique")
+        for key, chunk in zip(self._particles, (x, v, m, r, pin, e, mu)):
+            self._particles[key].append(chunk)
+        self.particle_groups.append(ParticleGroup(label, start, count, rgb))
+        return np.arange(start, start + count)
+
+    # springs -------------------------------------------------------------------
+    @property
+    def spring_count(self) -> int:
+        return sum(len(chunk) for chunk in self._springs["pairs"])
+
+    def spring_array(self, key: str) -> np.ndarray:
+        """One per-spring quantity, concatenated: pairs (K, 2) global particle indices;
+        stiffness [N/m], damping [N s/m], rest_length [m]."""
+        chunks = self._springs[key]
+        if chunks:
+            return np.concatenate(chunks)
+        return np.zeros((0, 2), dtype=np.int64) if key == "pairs" else np.zeros(0)
+
+    def add_springs(self, pairs, stiffness, damping=0.0, rest_length=None) -> np.ndarray:
+        """Add damped springs between particle pairs; returns their global spring indices.
+
+        pairs: (K, 2) global particle indices; stiffness ks [N/m] and damping kd [N s/m]:
+        one value or one per spring, >= 0; rest_length [m]: per spring or one value,
+        by default each spring's current length (which must then be non-zero).
+        """
+        p = checks.indices("pairs", pairs, self.particle_count, (-1, 2))
+        count = len(p)
+        if count == 0:
+            raise checks.fail("pairs", pairs, "need at least one spring")
+        self_loops = np.flatnonzero(p[:, 0] == p[:, 1])
+        if len(self_loops):
+            k = self_loops[0]
+            raise checks.fail("pairs", pairs, f"a spring must join two different particles; spring {k} joins particle {p[k, 0]} to itself")
+        ks = checks.per_element("stiffness", stiffness, count, low=0.0)
+        kd = checks.per_element("damping", damping, count, low=0.0)
+        if rest_length is None:
+            x = self.particle_array("position")
+            length = np.linalg.norm(x[p[:, 1]] - x[p[:, 0]], axis=1)
+            zero = np.flatnonzero(length == 0.0)
+            if len(zero):
+                k = zero[0]
+                raise checks.fail("rest_length", None, f"spring {k} joins coincident particles {tuple(p[k])}, so its rest length cannot default to its length; give rest_length")
+        else:
+            length = checks.per_element("rest_length", rest_length, count, low=0.0)
+        start = self.spring_count
+        for key, chunk in zip(self._springs, (p, ks, kd, length)):
+            self._springs[key].append(chunk)
+        return np.arange(start, start + count)
+
+    # planes --------------------------------------------------------------------
+    def add_plane(self, normal, offset: float = 0.0, restitution: float = 0.5, friction: float = 0.4,
+                  name: str | None = None) -> int:
+        """Add the static plane normal . x = offset [m]; returns its index.
+
+        Particles stay on the side the normal points to. restitution in [0, 1];
+        friction: Coulomb coefficient >= 0.
+        """
+        plane = Plane(
+            name=name or f"Plane{len(self.planes)}",
+            normal=checks.unit_vec3("normal", normal),
+            offset=checks.scalar("offset", offset),
+            restitution=checks.scalar("restitution", restitution, low=0.0, high=1.0),
+            friction=checks.scalar("friction", friction, low=0.0),
+        )
+        if any(existing.name == plane.name for existing in self.planes):
+            raise checks.fail("name", plane.name, "plane names must be unique")
+        self.planes.append(plane)
+        return len(self.planes) - 1
+
+    def add_ground(self, restitution: float = 0.5, friction: float = 0.4) -> int:
+        """Add the ground, the plane y = 0 with normal +Y; returns its plane index."""
+        return self.add_plane((0.0, 1.0, 0.0), 0.0, restitution, friction, name="Ground")
+
+    def __repr__(self) -> str:
+        return (f"Scene({self.particle_count} particles, {self.spring_count} springs, "
+                f"{len(self.planes)} planes, {self.precision})")
