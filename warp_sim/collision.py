@@ -9,8 +9,6 @@ Two responses, chosen per simulator:
 """
 from __future__ import annotations
 
-import warp as wp
-
 from .dynamics import Forces, ForceTerm
 from .kernels import planes as plane_kernels
 from .model import Model, State
@@ -32,9 +30,9 @@ class PlaneImpacts:
     def apply(self, start: State, end: State, h: float) -> None:
         """Correct ``end`` in place for every plane crossed between ``start`` and ``end`` (h seconds)."""
         m = self.model
-        wp.launch(plane_kernels.resolve_plane_impacts, dim=m.particle_count, device=m.device,
-                  inputs=[start.particle_x, start.particle_v, end.particle_x, end.particle_v,
-                          m.particle_inv_mass, m.particle_radius, *_material_inputs(m), m.scalar(h)])
+        m.launch(plane_kernels.resolve_plane_impacts, m.particle_count,
+                 [start.particle_x, start.particle_v, end.particle_x, end.particle_v, m.particle_inv_mass,
+                  m.particle_radius, *_material_inputs(m), m.scalar(h)])
 
 
 class PlanePenalty(ForceTerm):
@@ -46,6 +44,6 @@ class PlanePenalty(ForceTerm):
 
     def apply(self, state: State, t: float, forces: Forces) -> None:
         m = self.model
-        wp.launch(plane_kernels.plane_penalty_forces, dim=m.particle_count, device=m.device,
-                  inputs=[state.particle_x, state.particle_v, m.particle_inv_mass, m.particle_radius,
-                          *_material_inputs(m), self.stiffness, forces.particle_f])
+        m.launch(plane_kernels.plane_penalty_forces, m.particle_count,
+                 [state.particle_x, state.particle_v, m.particle_inv_mass, m.particle_radius,
+                  *_material_inputs(m), self.stiffness, forces.particle_f])

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from .kernels import integrate
 from .kernels import particles as particle_kernels
 from .kernels import springs as spring_kernels
 from .model import Field, Model, State, StateLayout
@@ -57,12 +58,12 @@ class Particles(Component):
 
     def velocity_derivative(self, state: State, t: float, out: State) -> None:
         m = self.model
-        wp.launch(particle_kernels.particle_acceleration, dim=m.particle_count, device=m.device,
-                  inputs=[state.particle_v, self.forces.particle_f, m.particle_inv_mass,
-                          m.gravity, m.drag, m.wind, out.particle_v])
+        m.launch(particle_kernels.particle_acceleration, m.particle_count,
+                 [state.particle_v, self.forces.particle_f, m.particle_inv_mass, m.gravity, m.drag, m.wind,
+                  out.particle_v])
 
     def position_derivative(self, positions: State, velocities: State, out: State) -> None:
-        wp.copy(out.particle_x, velocities.particle_v)
+        self.model.launch(integrate.copy, self.model.particle_count, [velocities.particle_v, out.particle_x])
 
     def guard_arrays(self, state: State):
         return state.particle_x, state.particle_v
@@ -83,9 +84,9 @@ class Springs(ForceTerm):
 
     def apply(self, state: State, t: float, forces: "Forces") -> None:
         m = self.model
-        wp.launch(spring_kernels.spring_forces, dim=m.spring_count, device=m.device,
-                  inputs=[state.particle_x, state.particle_v, m.spring_pairs, m.spring_stiffness,
-                          m.spring_damping, m.spring_rest_length, forces.particle_f])
+        m.launch(spring_kernels.spring_forces, m.spring_count,
+                 [state.particle_x, state.particle_v, m.spring_pairs, m.spring_stiffness, m.spring_damping,
+                  m.spring_rest_length, forces.particle_f])
 
 
 class Forces:

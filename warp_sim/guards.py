@@ -32,12 +32,13 @@ class SimulationDiverged(RuntimeError):
 class Guard:
     """Per-component device records of the first bad step, with the host-side check."""
 
-    def __init__(self, components, max_speed: float, scalar, device):
+    def __init__(self, model, components, max_speed: float):
         self.components = list(components)
-        self.max_speed = scalar(max_speed)
-        self.device = device
-        self.records = [(wp.full(1, NO_RECORD, dtype=wp.int32, device=device),
-                         wp.full(1, NO_RECORD, dtype=wp.int32, device=device)) for _ in self.components]
+        self.max_speed = max_speed
+        self._max_speed = model.scalar(max_speed)
+        self.launch = model.launch
+        self.records = [(wp.full(1, NO_RECORD, dtype=wp.int32, device=model.device),
+                         wp.full(1, NO_RECORD, dtype=wp.int32, device=model.device)) for _ in self.components]
         self.step_times: dict[int, float] = {}
 
     def record(self, state, step: int, time: float) -> None:
@@ -45,8 +46,8 @@ class Guard:
         self.step_times[step] = time
         for component, (first_step, first_key) in zip(self.components, self.records):
             x, v = component.guard_arrays(state)
-            wp.launch(guard_kernels.check_finite_and_bounded, dim=x.shape[0], device=self.device,
-                      inputs=[x, v, self.max_speed, step, first_step, first_key])
+            self.launch(guard_kernels.check_finite_and_bounded, x.shape[0],
+                        [x, v, self._max_speed, step, first_step, first_key])
 
     def raise_if_diverged(self, state) -> None:
         """Read the records (a device sync) and raise SimulationDiverged for the earliest bad step."""
@@ -62,5 +63,6 @@ class Guard:
         element, reason = divmod(key, 4)
         x, v = (np.asarray(a.numpy()[element], dtype=np.float64) for a in component.guard_arrays(state))
         detail = f" (now x = {np.array2string(x, precision=4)} m, v = {np.array2string(v, precision=4)} m/s)"
+        reason = REASONS[reason] + (f" = {self.max_speed:g} m/s" if reason == 2 else "")
         raise SimulationDiverged(step, self.step_times.get(step, float("nan")), component.name, element,
-                                 REASONS[reason], detail)
+                                 reason, detail)

@@ -6,8 +6,6 @@ the solver is made, never per step.
 """
 from __future__ import annotations
 
-import warp as wp
-
 from . import checks
 from .dynamics import Dynamics
 from .kernels import integrate
@@ -23,12 +21,11 @@ class Integrator:
     def __init__(self, dynamics: Dynamics):
         self.dynamics = dynamics
         self.scalar = dynamics.model.scalar
-        self.device = dynamics.model.device
+        self.launch = dynamics.model.launch
 
     def axpy(self, y, h: float, dy, out) -> None:
         """out = y + h dy over flat buffers (or blocks) of equal length."""
-        if y.shape[0]:
-            wp.launch(integrate.axpy, dim=y.shape[0], device=self.device, inputs=[y, self.scalar(h), dy, out])
+        self.launch(integrate.axpy, y.shape[0], [y, self.scalar(h), dy, out])
 
     def step(self, state_in: State, state_out: State, t: float, h: float) -> None:
         raise NotImplementedError
@@ -85,9 +82,8 @@ class RK4(Integrator):
         f(self.trial, t + 0.5 * h, k3)
         self.axpy(state_in.y, h, k3.y, self.trial.y)
         f(self.trial, t + h, k4)
-        n = state_in.y.shape[0]
-        wp.launch(integrate.rk4_combine, dim=n, device=self.device,
-                  inputs=[state_in.y, self.scalar(h), k1.y, k2.y, k3.y, k4.y, state_out.y])
+        self.launch(integrate.rk4_combine, state_in.y.shape[0],
+                    [state_in.y, self.scalar(h), k1.y, k2.y, k3.y, k4.y, state_out.y])
 
 
 class SymplecticEuler(Integrator):

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from .launcher import Launcher
 from .scene import Scene
 
 SCALARS = {"float32": (wp.float32, wp.vec3f, np.float32), "float64": (wp.float64, wp.vec3d, np.float64)}
@@ -90,6 +91,8 @@ class Model:
     def __init__(self, scene: Scene, device):
         self.scene = scene
         self.device = wp.get_device(device)
+        self.launcher = Launcher(self.device)
+        self.launch = self.launcher.launch
         self.scalar, self.vec3, self.numpy_scalar = SCALARS[scene.precision]
         self.gravity = self.vec3(*scene.gravity)
         self.drag = self.scalar(scene.drag)

@@ -67,7 +67,7 @@ class Simulator:
         self.impacts = PlaneImpacts(self.model) if contact == "impulse" and self.model.plane_count else None
         self.state = self.dynamics.initial_state()
         self._next = self.dynamics.new_state()
-        self.guard = Guard(self.dynamics.components, speed, self.model.scalar, self.model.device) if guard else None
+        self.guard = Guard(self.model, self.dynamics.components, speed) if guard else None
         self.time = 0.0
         self.step_count = 0
 

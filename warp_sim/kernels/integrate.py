@@ -29,3 +29,10 @@ def rk4_combine(
     i = wp.tid()
     two = type(h)(2.0)
     out[i] = y[i] + h / type(h)(6.0) * (k1[i] + two * k2[i] + two * k3[i] + k4[i])
+
+
+@wp.kernel
+def copy(source: wp.array(dtype=Any), out: wp.array(dtype=Any)):
+    """out = source, element-wise (a launch, so it can be recorded and replayed)."""
+    i = wp.tid()
+    out[i] = source[i]

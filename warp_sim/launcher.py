@@ -1,0 +1,40 @@
+"""Recorded kernel launches: resolve a kernel's overload and pack its arguments once.
+
+A simulator launches the same kernels on the same arrays every step (its two
+states alternate), so each distinct (kernel, arrays) launch is recorded once with
+Warp's ``record_cmd`` and replayed, with only its scalar arguments (a step size,
+a step index) set again. On the CPU this cuts the host cost of a launch about
+twentyfold, which is what small scenes are bound by.
+"""
+from __future__ import annotations
+
+import warp as wp
+
+
+class Launcher:
+    """Launch kernels on one device through a cache of recorded launches.
+
+    The cache keeps the arrays it was recorded with alive, so a cached launch never
+    points at freed memory; it lives as long as the owner (one per Model).
+    """
+
+    def __init__(self, device):
+        self.device = device
+        self._recorded: dict[tuple, tuple] = {}
+
+    def launch(self, kernel, dim: int, inputs: list) -> None:
+        """Run ``kernel`` over ``dim`` threads with ``inputs`` (arrays and scalars)."""
+        if dim == 0:
+            return
+        key = (kernel, dim) + tuple(id(a) if isinstance(a, wp.array) else None for a in inputs)
+        entry = self._recorded.get(key)
+        if entry is None:
+            command = wp.launch(kernel, dim=dim, inputs=inputs, device=self.device, record_cmd=True)
+            scalars = [i for i, a in enumerate(inputs) if not isinstance(a, wp.array)]
+            entry = (command, scalars, inputs)
+            self._recorded[key] = entry
+        else:
+            command, scalars, _ = entry
+            for i in scalars:
+                command.set_param_at_index(i, inputs[i])
+        command.launch()
