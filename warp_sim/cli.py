@@ -7,9 +7,6 @@ import time
 
 
 def _demo(args) -> int:
-    import warp as wp
-
-    wp.config.quiet = not args.verbose
     from .demo import demo_scene
     from .simulator import Simulator
 
@@ -53,6 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """Entry point of the `warp-sim` console script."""
     args = build_parser().parse_args(argv)
+    import warp as wp
+
+    wp.config.log_level = wp.LOG_INFO if args.verbose else wp.LOG_WARNING
     try:
         return args.run(args)
     except ValueError as error:

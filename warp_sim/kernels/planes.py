@@ -171,6 +171,47 @@ def resolve_plane_impacts(
         v[i] = ve
 
 
+@wp.func
+def no_tension_log_restitution(zeta: Any):
+    """-ln e of a linear spring-dashpot contact that cannot pull, at damping ratio zeta.
+
+    The contact ends when the force k x + c x' reaches zero (before the spring is
+    back at rest length), so e exceeds the free oscillator's exp(-zeta pi / sqrt(1 - zeta^2)):
+    e = exp(-zeta/s (pi - atan2(2 zeta s, 1 - 2 zeta^2))), s = sqrt(1 - zeta^2), below
+    critical damping; e = exp(-zeta/s atanh(2 zeta s / (2 zeta^2 - 1))), s = sqrt(zeta^2 - 1), above
+    (Schwager and Poeschel, Phys. Rev. E 2007).
+    """
+    one = type(zeta)(1.0)
+    two = type(zeta)(2.0)
+    result = two
+    if zeta < one:
+        s = wp.sqrt(one - zeta * zeta)
+        result = zeta / s * (type(zeta)(3.141592653589793) - wp.atan2(two * zeta * s, one - two * zeta * zeta))
+    elif zeta > one:
+        s = wp.sqrt(zeta * zeta - one)
+        u = two * zeta * s / (two * zeta * zeta - one)
+        result = zeta / s * type(zeta)(0.5) * wp.log((one + u) / (one - u))
+    return result
+
+
+@wp.func
+def restitution_damping_ratio(e: Any):
+    """The damping ratio zeta at which a no-tension penalty contact rebounds with restitution e.
+
+    Bisection on the monotone -ln e(zeta) over [0, 100]; e is clamped to [1e-4, 1].
+    """
+    target = -wp.log(wp.clamp(e, type(e)(1e-4), type(e)(1.0)))
+    low = type(e)(0.0)
+    high = type(e)(100.0)
+    for _ in range(48):
+        mid = type(e)(0.5) * (low + high)
+        if no_tension_log_restitution(mid) < target:
+            low = mid
+        else:
+            high = mid
+    return type(e)(0.5) * (low + high)
+
+
 @wp.kernel
 def plane_penalty_forces(
     x: wp.array(dtype=Any),
@@ -190,7 +231,7 @@ def plane_penalty_forces(
 
     f_n = max(0, k depth - c v_n) along n, with k the stiffness [N/m] and the damper
     c = 2 zeta sqrt(k m) chosen so that an isolated contact rebounds with the
-    contact's restitution e (zeta = -ln e / sqrt(pi^2 + ln^2 e)). Friction opposes
+    contact's restitution e (see restitution_damping_ratio). Friction opposes
     the tangential velocity with magnitude min(mu f_n, c |v_t|): Coulomb when
     sliding, viscous (slow creep) below the speed mu f_n / c. force: accumulator [N].
     """
@@ -205,10 +246,8 @@ def plane_penalty_forces(
         n = plane_normal[k]
         depth = plane_offset[k] + radius[i] - wp.dot(n, x[i])
         if depth > zero:
-            e = wp.max(contact_material(plane_restitution[k], particle_restitution, i), type(stiffness)(1e-4))
-            log_e = wp.log(e)
-            zeta = -log_e / wp.sqrt(type(stiffness)(9.869604401089358) + log_e * log_e)
-            c = type(stiffness)(2.0) * zeta * wp.sqrt(stiffness * mass)
+            e = contact_material(plane_restitution[k], particle_restitution, i)
+            c = type(stiffness)(2.0) * restitution_damping_ratio(e) * wp.sqrt(stiffness * mass)
             vn = wp.dot(v[i], n)
             fn = wp.max(stiffness * depth - c * vn, zero)
             vt = v[i] - vn * n

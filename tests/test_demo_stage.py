@@ -1,0 +1,86 @@
+"""The `warp-sim demo` command and the stages Simulator.run writes."""
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from pxr import Usd, UsdGeom, UsdPhysics
+
+import warp_sim as ws
+from warp_sim.cli import main
+from warp_sim.stages import validate_stage
+
+
+@pytest.fixture(scope="module")
+def demo_stage(tmp_path_factory):
+    path = tmp_path_factory.mktemp("demo") / "demo.usdc"
+    assert main(["demo", "--seconds", "0.5", "--fps", "60", "--substeps", "4", "--out", str(path),
+                 "--no-progress", "--device", "cpu"]) == 0
+    return Usd.Stage.Open(str(path)), path
+
+
+def test_demo_stage_validates_with_design_metadata(demo_stage):
+    stage, path = demo_stage
+    assert path.read_bytes()[:8] == b"PXR-USDC"
+    assert validate_stage(stage) == []
+    assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y
+    assert UsdGeom.GetStageMetersPerUnit(stage) == 1.0
+    assert UsdPhysics.GetStageKilogramsPerUnit(stage) == 1.0
+    assert stage.GetTimeCodesPerSecond() == stage.GetFramesPerSecond() == 60.0
+    assert (stage.GetStartTimeCode(), stage.GetEndTimeCode()) == (0.0, 29.0)
+    assert stage.GetDefaultPrim().GetPath() == "/World"
+
+
+def test_demo_has_one_sample_per_frame_and_static_ground(demo_stage):
+    stage, _ = demo_stage
+    for name in ("balls", "chain"):
+        points = UsdGeom.Points(stage.GetPrimAtPath(f"/World/Particles/{name}"))
+        assert points.GetPointsAttr().GetTimeSamples() == list(range(30))
+        assert len(points.GetVelocitiesAttr().GetTimeSamples()) == 30
+    curves = UsdGeom.BasisCurves(stage.GetPrimAtPath("/World/Springs"))
+    assert len(curves.GetPointsAttr().GetTimeSamples()) == 30
+    assert list(curves.GetCurveVertexCountsAttr().Get()) == [2] * 20
+    ground = stage.GetPrimAtPath("/World/Planes/Ground")
+    assert ground.IsValid()
+    assert all(attr.GetNumTimeSamples() == 0 for attr in ground.GetAttributes())
+
+
+def test_demo_balls_stay_above_ground_and_chain_anchor_stays_put(demo_stage):
+    stage, _ = demo_stage
+    balls = UsdGeom.Points(stage.GetPrimAtPath("/World/Particles/balls")).GetPointsAttr()
+    chain = UsdGeom.Points(stage.GetPrimAtPath("/World/Particles/chain")).GetPointsAttr()
+    for t in range(30):
+        assert np.array(balls.Get(t))[:, 1].min() >= 0.03 - 1e-5     # radius 3 cm on y = 0
+        np.testing.assert_allclose(np.array(chain.Get(t))[0], (2.5, 3.0, 0.0), atol=1e-6)
+
+
+@pytest.mark.parametrize("fps, seconds, frames", [(100.0, 0.3, 30), (29.97, 1.0, 30), (24.0, 0.5, 12)])
+def test_frame_count_and_time_codes_are_exact(tmp_path, fps, seconds, frames):
+    scene = ws.Scene()
+    scene.add_particles([[0.0, 1.0, 0.0]])
+    sim = ws.Simulator(scene, integrator="verlet", device="cpu")
+    path = sim.run(seconds=seconds, fps=fps, substeps=2, usd=tmp_path / "run.usda", progress=False)
+    stage = Usd.Stage.Open(str(path))
+    points = UsdGeom.Points(stage.GetPrimAtPath("/World/Particles/group0")).GetPointsAttr()
+    assert points.GetTimeSamples() == list(range(frames))
+    assert stage.GetTimeCodesPerSecond() == pytest.approx(fps)
+    assert sim.time == pytest.approx((frames - 1) / fps, abs=1e-12)
+    # frame k holds the free fall at t = k / fps (verlet is exact for uniform gravity)
+    k = frames - 1
+    assert np.array(points.Get(k))[0, 1] == pytest.approx(1.0 - 0.5 * 9.81 * (k / fps) ** 2, abs=1e-5)
+
+
+def test_console_script_help_lists_the_options():
+    exe = shutil.which("warp-sim", path=os.path.dirname(sys.executable)) or shutil.which("warp-sim")
+    if exe is None:
+        pytest.skip("warp-sim console script not on PATH (package not installed)")
+    out = subprocess.run([exe, "demo", "--help"], capture_output=True, text=True, check=True).stdout
+    for option in ("--device", "--integrator", "--seconds", "--fps", "--substeps", "--out"):
+        assert option in out
+
+
+def test_cli_reports_bad_values_without_a_traceback(tmp_path, capsys):
+    assert main(["demo", "--seconds", "-1", "--out", str(tmp_path / "x.usdc"), "--no-progress"]) == 2
+    assert "seconds=-1" in capsys.readouterr().err
