@@ -30,17 +30,11 @@ def code_cells(path: pathlib.Path):
 
 @pytest.fixture
 def quiet_warp():
-    """Quiet Warp while a notebook runs: ``config.quiet`` (Warp < 1.19) and ``config.log_level``
-    (Warp 1.19 replaced ``quiet`` with it; setting ``quiet`` alone no longer silences anything)."""
-    saved = {name: getattr(wp.config, name) for name in ("quiet", "log_level") if hasattr(wp.config, name)}
-
-    if hasattr(wp, "LOG_WARNING"):
-        wp.config.log_level = wp.LOG_WARNING
+    """Warp's module-load messages off while a notebook runs (Warp 1.19: ``config.log_level``)."""
+    saved = wp.config.log_level
+    wp.config.log_level = wp.LOG_WARNING
     yield
-    for name, value in saved.items():
-        setattr(wp.config, name, value)
-    if "quiet" not in saved:
-        del wp.config.quiet
+    wp.config.log_level = saved
 
 
 @pytest.mark.parametrize("notebook", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
