@@ -20,7 +20,7 @@ import numpy as np
 import warp as wp
 
 wp.config.quiet = True
-wp.config.log_level = wp.LOG_WARNING  # Warp 1.19 has no effect for `quiet`; this silences its info messages
+wp.config.log_level = wp.LOG_WARNING  # Warp 1.19 ignores `quiet`; log_level silences its info messages
 
 from warp_sim import Scene, Simulator  # noqa: E402
 from warp_sim.simulator import resolve_device  # noqa: E402
@@ -51,21 +51,16 @@ def best_rate(copy, nbytes: int, repeats: int = 7) -> float:
     return 2 * nbytes / min(times)
 
 
-def numpy_bandwidth(megabytes: int) -> float:
-    src = np.ones(megabytes * 2**20 // 4, dtype=np.float32)
-    dst = np.empty_like(src)
-    return best_rate(lambda: np.copyto(dst, src), src.nbytes)
-
-
-def device_bandwidth(device, megabytes: int) -> float:
-    src = wp.ones(megabytes * 2**20 // 4, dtype=wp.float32, device=device)
+def copy_bandwidth(megabytes: int, device=None) -> float:
+    """A large float32 copy: np.copyto on the host (device None), else wp.copy between device arrays."""
+    count = megabytes * 2**20 // 4
+    if device is None:
+        src = np.ones(count, dtype=np.float32)
+        dst = np.empty_like(src)
+        return best_rate(lambda: np.copyto(dst, src), 4 * count)
+    src = wp.ones(count, dtype=wp.float32, device=device)
     dst = wp.empty_like(src)
-
-    def copy():
-        wp.copy(dst, src)
-        wp.synchronize_device(device)
-
-    return best_rate(copy, megabytes * 2**20)
+    return best_rate(lambda: (wp.copy(dst, src), wp.synchronize_device(device)), 4 * count)
 
 
 def time_steps(sim: Simulator, steps: int) -> float:
@@ -129,13 +124,10 @@ def bench_size(n: int, device: str, steps: int, repeats: int, bandwidth: float) 
 
 
 def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
+    cpuinfo = Path("/proc/cpuinfo")
+    names = [line.split(":", 1)[1].strip() for line in (cpuinfo.read_text().splitlines() if cpuinfo.exists() else [])
+             if line.startswith("model name")]
+    return names[0] if names else platform.processor() or platform.machine()
 
 
 def main(argv=None) -> None:
@@ -150,8 +142,8 @@ def main(argv=None) -> None:
 
     wp.init()
     device = wp.get_device(resolve_device(args.device))
-    host_bw = numpy_bandwidth(args.copy_mb)
-    floor_bw = device_bandwidth(device, args.copy_mb) if device.is_cuda else host_bw
+    host_bw = copy_bandwidth(args.copy_mb)
+    floor_bw = copy_bandwidth(args.copy_mb, device) if device.is_cuda else host_bw
     name = device.name if device.is_cuda else cpu_model()
     print(f"warp {wp.__version__}, device {device.alias} ({name}), dt = {DT:.6g} s")
     print(f"copy bandwidth (read + write): numpy {host_bw / 1e9:.2f} GB/s"

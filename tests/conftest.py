@@ -1,11 +1,8 @@
 """Shared test set-up: quiet Warp, the devices to test on (the CPU, and CUDA where present)."""
-import os
-
 import pytest
 import warp as wp
 
 wp.config.log_level = wp.LOG_WARNING
-os.environ.setdefault("TQDM_DISABLE", "1")
 
 DEVICES = ["cpu"] + (["cuda"] if wp.get_cuda_device_count() > 0 else [])
 

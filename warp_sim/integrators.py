@@ -86,42 +86,46 @@ class RK4(Integrator):
                     [state_in.y, self.scalar(h), k1.y, k2.y, k3.y, k4.y, state_out.y])
 
 
-class SymplecticEuler(Integrator):
+class Partitioned(Integrator):
+    """Base of the symplectic schemes: kicks (velocities from forces) and drifts
+    (positions from velocities), on the two blocks of the state."""
+
+    def __init__(self, dynamics):
+        super().__init__(dynamics)
+        self.k = dynamics.new_state()
+
+    def kick(self, forces_at: State, velocities: State, out: State, t: float, h: float) -> None:
+        """out.velocity = velocities.velocity + h * (velocity rates at ``forces_at``)."""
+        self.dynamics.velocity_derivative(forces_at, t, self.k)
+        self.axpy(velocities.velocity, h, self.k.velocity, out.velocity)
+
+    def drift(self, state_in: State, state_out: State, h: float) -> None:
+        """out.position = in.position + h * (position rates from in's positions and out's velocities)."""
+        self.dynamics.position_derivative(state_in, state_out, self.k)
+        self.axpy(state_in.position, h, self.k.position, state_out.position)
+
+
+class SymplecticEuler(Partitioned):
     """Semi-implicit Euler: velocities from forces at the old positions, then positions
     from the new velocities. First order, symplectic: bounded energy error."""
 
     name, order = "symplectic_euler", 1
 
-    def __init__(self, dynamics):
-        super().__init__(dynamics)
-        self.k = dynamics.new_state()
-
     def step(self, state_in, state_out, t, h):
-        d = self.dynamics
-        d.velocity_derivative(state_in, t, self.k)
-        self.axpy(state_in.velocity, h, self.k.velocity, state_out.velocity)
-        d.position_derivative(state_in, state_out, self.k)
-        self.axpy(state_in.position, h, self.k.position, state_out.position)
+        self.kick(state_in, state_in, state_out, t, h)
+        self.drift(state_in, state_out, h)
 
 
-class VelocityVerlet(Integrator):
+class VelocityVerlet(Partitioned):
     """Velocity Verlet: half kick, drift, half kick with the forces at the new positions.
     Second order, symplectic; velocity-dependent forces use the half-step velocity."""
 
     name, order = "verlet", 2
 
-    def __init__(self, dynamics):
-        super().__init__(dynamics)
-        self.k = dynamics.new_state()
-
     def step(self, state_in, state_out, t, h):
-        d = self.dynamics
-        d.velocity_derivative(state_in, t, self.k)
-        self.axpy(state_in.velocity, 0.5 * h, self.k.velocity, state_out.velocity)
-        d.position_derivative(state_in, state_out, self.k)
-        self.axpy(state_in.position, h, self.k.position, state_out.position)
-        d.velocity_derivative(state_out, t + h, self.k)
-        self.axpy(state_out.velocity, 0.5 * h, self.k.velocity, state_out.velocity)
+        self.kick(state_in, state_in, state_out, t, 0.5 * h)
+        self.drift(state_in, state_out, h)
+        self.kick(state_out, state_out, state_out, t + h, 0.5 * h)
 
 
 INTEGRATORS = {cls.name: cls for cls in (Euler, Midpoint, RK4, SymplecticEuler, VelocityVerlet)}

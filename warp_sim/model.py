@@ -18,6 +18,8 @@ from .scene import Scene
 
 SCALARS = {"float32": (wp.float32, wp.vec3f, np.float32), "float64": (wp.float64, wp.vec3d, np.float64)}
 BLOCKS = ("position", "velocity")
+# the canonical Warp vector types of a field, by scalar type and width (vector, quaternion)
+ELEMENT_TYPES = {wp.float32: {3: wp.vec3f, 4: wp.quatf}, wp.float64: {3: wp.vec3d, 4: wp.quatd}}
 
 
 @dataclass(frozen=True)
@@ -61,7 +63,7 @@ class State:
         self.y = wp.zeros(layout.size, dtype=scalar, device=device)
         self.position = self.y[: layout.position_size]
         self.velocity = self.y[layout.position_size:]
-        vector_types = {3: wp.types.vector(3, scalar), 4: wp.types.quaternion(scalar)}
+        vector_types = ELEMENT_TYPES[scalar]
         for field in layout.fields:
             start = layout.offsets[field.name]
             flat = self.y[start: start + field.width * field.count]

@@ -121,7 +121,7 @@ class Simulator:
         start_time = self.time
         writer = StageWriter(usd, fps, stage_layout(self.model.scene), chunk_frames) if usd is not None else None
         try:
-            with tqdm(total=frames, unit="frame", disable=not progress, desc="simulating") as bar:
+            with tqdm(total=frames, unit="frame", disable=None if progress else True, desc="simulating") as bar:
                 for frame in range(frames):
                     if frame > 0:
                         for _ in range(substeps):
