@@ -145,3 +145,39 @@ def test_penalty_bounce_loses_energy_as_restitution_says(device):
             break
     print(f"penalty apex {apex:.4f} m (e^2 = 0.25)")
     assert apex == pytest.approx(0.25, rel=0.02)
+
+
+def incline(mu, theta_degrees, device, integrator="symplectic_euler"):
+    """A particle at rest on the plane through the origin tilted by theta about z."""
+    theta = math.radians(theta_degrees)
+    n = np.array([-math.sin(theta), math.cos(theta), 0.0])
+    scene = ws.Scene(precision="float64")
+    scene.add_plane(normal=n, offset=0.0, restitution=0.0, friction=mu)
+    scene.add_particles([[0.0, 0.0, 0.0]], radius=0.0)
+    return ws.Simulator(scene, integrator=integrator, device=device), theta
+
+
+@pytest.mark.parametrize("integrator", ["symplectic_euler", "rk4"])
+def test_static_friction_holds_on_an_incline_without_creep(integrator, device):
+    """mu = 0.5 > tan 20 deg = 0.364: the particle stays exactly where it is."""
+    sim, _ = incline(0.5, 20.0, device, integrator)
+    for _ in range(2000):
+        sim.step(1e-3)
+    x, v = particle(sim)
+    assert np.abs(x).max() < 1e-12 and np.abs(v).max() < 1e-12
+
+
+@pytest.mark.parametrize("integrator", ["symplectic_euler", "verlet", "rk4"])
+def test_kinetic_friction_on_an_incline(integrator, device):
+    """mu = 0.2 < tan 30 deg: slides down the slope with a = g (sin t - mu cos t), on the plane."""
+    sim, theta = incline(0.2, 30.0, device, integrator)
+    T, h = 1.0, 1e-3
+    for _ in range(round(T / h)):
+        sim.step(h)
+    x, v = particle(sim)
+    a = G * (math.sin(theta) - 0.2 * math.cos(theta))
+    down = -np.array([math.cos(theta), math.sin(theta), 0.0])
+    assert x @ down == pytest.approx(0.5 * a * T**2, rel=2e-3)
+    assert v @ down == pytest.approx(a * T, rel=2e-3)
+    n = np.array([-math.sin(theta), math.cos(theta), 0.0])
+    assert abs(x @ n) < 1e-12

@@ -39,10 +39,14 @@ class Guard:
         self.launch = model.launch
         self.records = [(wp.full(1, NO_RECORD, dtype=wp.int32, device=model.device),
                          wp.full(1, NO_RECORD, dtype=wp.int32, device=model.device)) for _ in self.components]
-        self.step_times: dict[int, float] = {}
+        self.step_times: dict[int, float] = {}   # end time of each step since the last check
+
+    max_unchecked_steps = 1 << 20
 
     def record(self, state, step: int, time: float) -> None:
         """Launch the checks for the state after ``step`` (ending at ``time``); no sync."""
+        if len(self.step_times) >= self.max_unchecked_steps:   # never checked: keep memory bounded
+            self.step_times.clear()
         self.step_times[step] = time
         for component, (first_step, first_key) in zip(self.components, self.records):
             x, v = component.guard_arrays(state)

@@ -15,8 +15,12 @@ class Launcher:
     """Launch kernels on one device through a cache of recorded launches.
 
     The cache keeps the arrays it was recorded with alive, so a cached launch never
-    points at freed memory; it lives as long as the owner (one per Model).
+    points at freed memory; it lives as long as the owner (one per Model). A caller
+    that passes new arrays on every call would fill it: past ``capacity`` entries it
+    starts afresh, so memory stays bounded (and such calls cost a normal launch).
     """
+
+    capacity = 512
 
     def __init__(self, device):
         self.device = device
@@ -29,6 +33,8 @@ class Launcher:
         key = (kernel, dim) + tuple(id(a) if isinstance(a, wp.array) else None for a in inputs)
         entry = self._recorded.get(key)
         if entry is None:
+            if len(self._recorded) >= self.capacity:
+                self._recorded.clear()
             command = wp.launch(kernel, dim=dim, inputs=inputs, device=self.device, record_cmd=True)
             scalars = [i for i, a in enumerate(inputs) if not isinstance(a, wp.array)]
             entry = (command, scalars, inputs)

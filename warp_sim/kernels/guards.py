@@ -27,13 +27,19 @@ def check_finite_and_bounded(
     i = wp.tid()
     if first_step[0] < step:
         return
-    reason = int(-1)
-    if not wp.isfinite(x[i]):
+    xi = x[i]
+    vi = v[i]
+    speed_squared = wp.dot(vi, vi)
+    # one finiteness test on a sum: any NaN or infinity in x or v makes it non-finite
+    total = xi[0] + xi[1] + xi[2] + speed_squared
+    if wp.isfinite(total) and speed_squared <= max_speed * max_speed:
+        return
+    reason = REASON_SPEED
+    if wp.isfinite(xi) and wp.isfinite(vi) and speed_squared <= max_speed * max_speed:
+        return  # finite values whose sum overflowed: nothing wrong
+    if not wp.isfinite(xi):
         reason = REASON_POSITION
-    elif not wp.isfinite(v[i]):
+    elif not wp.isfinite(vi):
         reason = REASON_VELOCITY
-    elif wp.length(v[i]) > max_speed:
-        reason = REASON_SPEED
-    if reason >= 0:
-        wp.atomic_min(first_step, 0, step)
-        wp.atomic_min(first_key, 0, 4 * i + reason)
+    wp.atomic_min(first_step, 0, step)
+    wp.atomic_min(first_key, 0, 4 * i + reason)

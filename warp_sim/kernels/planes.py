@@ -29,7 +29,8 @@ def first_contact_time(d0: Any, b: Any, c: Any, horizon: Any):
 
     d0: signed distance to the plane at t = 0 [m]; b: normal velocity [m/s];
     c: half the normal acceleration [m/s^2]. A particle already touching or inside
-    (d0 <= 0) contacts at t = 0 only if it is moving or accelerating inwards.
+    (d0 <= 0) contacts at t = 0 if it is moving or accelerating inwards, and when
+    it comes back if it is moving out but accelerated in.
     """
     zero = type(d0)(0.0)
     none = type(d0)(-1.0)
@@ -37,6 +38,11 @@ def first_contact_time(d0: Any, b: Any, c: Any, horizon: Any):
     if d0 <= zero:
         if b < zero or (b == zero and c < zero):
             result = zero
+        elif c < zero and b > zero:
+            # leaving, but accelerated back: it returns to this level at t = -b / c
+            back = -b / c
+            if back <= horizon:
+                result = back
     else:
         end = d0 + (b + c * horizon) * horizon
         if end <= zero or c > zero:
