@@ -19,8 +19,7 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
-wp.config.quiet = True
-wp.config.log_level = wp.LOG_WARNING  # Warp 1.19 ignores `quiet`; log_level silences its info messages
+wp.config.log_level = wp.LOG_WARNING  # no per-module load messages
 
 from warp_sim import Scene, Simulator  # noqa: E402
 from warp_sim.simulator import resolve_device  # noqa: E402
