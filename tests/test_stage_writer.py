@@ -200,7 +200,7 @@ def test_chunked_saves_give_complete_stage(tmp_path):
 
 
 @pytest.mark.parametrize("name,value,shown", [
-    ("path", "run.abc", "'.abc'"), ("path", "run", "''"), ("fps", 0, "0"), ("fps", -24.0, "-24.0"),
+    ("path", "run.abc", "'.abc'"), ("fps", 0, "0"), ("fps", -24.0, "-24.0"),
     ("fps", math.nan, "nan"), ("fps", math.inf, "inf"), ("chunk_frames", 0, "0"), ("chunk_frames", 2.5, "2.5"),
 ])
 def test_bad_arguments(tmp_path, name, value, shown):
@@ -255,3 +255,11 @@ def test_validate_stage(tmp_path):
     UsdGeom.Xform.Define(bare, "/World")
     errors = validate_stage(bare)  # no upAxis, metersPerUnit, defaultPrim
     assert any("upAxis" in e for e in errors) and any("defaultPrim" in e for e in errors)
+
+
+def test_path_without_extension_gets_usdc(tmp_path):
+    layout = StageLayout(points_groups=(PointsGroup("p", 0, 1, np.array([0.02]), (1.0, 0.0, 0.0)),))
+    with StageWriter(tmp_path / "scene", 24.0, layout) as writer:
+        writer.write_frame(0, np.zeros((1, 3)), np.zeros((1, 3)))
+    assert writer.path == tmp_path / "scene.usdc"
+    assert (tmp_path / "scene.usdc").read_bytes()[:8] == b"PXR-USDC"

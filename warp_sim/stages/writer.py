@@ -240,6 +240,8 @@ class StageWriter:
 
     def __init__(self, path, fps: float, layout: StageLayout, chunk_frames: int = 240):
         self._path = pathlib.Path(path)
+        if not self._path.suffix:
+            self._path = self._path.with_suffix(".usdc")   # binary crate by default
         ext = self._path.suffix.lower()
         _require(ext in USD_EXTENSIONS,
                  f"path must end in one of {', '.join(USD_EXTENSIONS)}; got {str(path)!r} (extension {ext!r})")
