@@ -125,7 +125,8 @@ class Scene:
         self_loops = np.flatnonzero(p[:, 0] == p[:, 1])
         if len(self_loops):
             k = self_loops[0]
-            raise checks.fail("pairs", pairs, f"a spring must join two different particles; spring {k} joins particle {p[k, 0]} to itself")
+            raise checks.fail("pairs", pairs, f"a spring must join two different particles; "
+                                              f"spring {k} joins particle {p[k, 0]} to itself")
         ks = checks.per_element("stiffness", stiffness, count, low=0.0)
         kd = checks.per_element("damping", damping, count, low=0.0)
         if rest_length is None:
@@ -134,7 +135,8 @@ class Scene:
             zero = np.flatnonzero(length == 0.0)
             if len(zero):
                 k = zero[0]
-                raise checks.fail("rest_length", None, f"spring {k} joins coincident particles {tuple(p[k])}, so its rest length cannot default to its length; give rest_length")
+                raise checks.fail("rest_length", None, f"spring {k} joins coincident particles {tuple(p[k])}, "
+                                                       "so its rest length cannot default to its length; give rest_length")
         else:
             length = checks.per_element("rest_length", rest_length, count, low=0.0)
         start = self.spring_count
