@@ -56,6 +56,29 @@ def test_demo_balls_stay_above_ground_and_chain_anchor_stays_put(demo_stage):
         np.testing.assert_allclose(np.array(chain.Get(t))[0], (2.5, 3.0, 0.0), atol=1e-6)
 
 
+def test_demo_bodies_fly_the_projectile_and_tumble(demo_stage):
+    """Each thrown body is an Xform whose translate follows the projectile with linear drag c,
+    x0 + (v0 - g/k)(1 - exp(-k t))/k + g t / k with k = c / M (float32, rk4), and whose orient
+    changes; its shape is a child gprim with no time samples."""
+    from warp_sim.demo import THROWN_BODIES, demo_scene
+
+    stage, _ = demo_stage
+    bodies = {body.name: body for body in demo_scene().bodies}
+    for name, _, position, velocity, _ in THROWN_BODIES:
+        prim = stage.GetPrimAtPath(f"/World/Bodies/{name}")
+        assert prim.GetTypeName() == "Xform"
+        translate, orient = UsdGeom.Xformable(prim).GetOrderedXformOps()
+        assert translate.GetTimeSamples() == list(range(30)) == orient.GetTimeSamples()
+        t = 29 / 60.0
+        k, g = bodies[name].drag / bodies[name].mass.mass, np.array([0.0, -9.81, 0.0])
+        expected = np.array(position) + (np.array(velocity) - g / k) * (1 - np.exp(-k * t)) / k + g * t / k
+        np.testing.assert_allclose(np.array(translate.Get(29)), expected, atol=2e-5)
+        assert orient.Get(0) != orient.Get(29)
+        children = prim.GetChildren()
+        assert len(children) == 1 and all(a.GetNumTimeSamples() == 0 for a in children[0].GetAttributes())
+    assert stage.GetPrimAtPath("/World/Bodies/torus").GetChildren()[0].GetTypeName() == "Mesh"
+
+
 @pytest.mark.parametrize("fps, seconds, frames", [(100.0, 0.3, 30), (29.97, 1.0, 30), (24.0, 0.5, 12)])
 def test_frame_count_and_time_codes_are_exact(tmp_path, fps, seconds, frames):
     scene = ws.Scene()

@@ -14,16 +14,23 @@ kind = sys.argv[1]
 scene = ws.Scene()
 if kind != "no_planes":
     scene.add_ground()
-ids = scene.add_particles([[0.0, 1.0, 0.0], [0.5, 1.0, 0.0]])
+if kind != "bodies_only":
+    ids = scene.add_particles([[0.0, 1.0, 0.0], [0.5, 1.0, 0.0]])
 if kind == "springs":
     scene.add_springs([[0, 1]], 100.0)
+if kind in ("bodies_only", "mixed"):
+    scene.add_rigid_body(ws.Box(0.1), position=(0.0, 2.0, 0.0), angular_velocity=(1.0, 2.0, 3.0))
 sim = ws.Simulator(scene, integrator="symplectic_euler", device="cpu", guard=(kind != "no_guard"))
 for _ in range(3):
     sim.step(0.01)
-topics = ("springs", "planes", "particles", "integrate", "guards")
+topics = ("springs", "planes", "particles", "integrate", "guards", "rigid")
 loaded = [t for t in topics if wp.get_module("warp_sim.kernels." + t).execs]
-arrays = {name: getattr(sim.model, name) is not None for name in ("spring_pairs", "plane_normal", "particle_inv_mass")}
-print(json.dumps({"loaded": loaded, "arrays": arrays, "force": sim.dynamics.forces.particle_f.shape[0]}))
+names = ("spring_pairs", "plane_normal", "particle_inv_mass", "body_inv_mass", "body_inv_inertia")
+arrays = {name: getattr(sim.model, name) is not None for name in names}
+fields = [field.name for field in sim.dynamics.layout.fields]
+forces = sim.dynamics.forces
+print(json.dumps({"loaded": loaded, "arrays": arrays, "force": forces.particle_f.shape[0],
+                  "body_force": forces.body_f.shape[0] + forces.body_t.shape[0], "fields": fields}))
 """
 
 
@@ -37,12 +44,30 @@ def kernels(result):
     return set(result["loaded"])
 
 
-def test_particles_only_scene_never_loads_springs():
+def test_particles_only_scene_never_loads_springs_or_bodies():
     result = probe("particles")
-    assert "springs" not in kernels(result)
+    assert not {"springs", "rigid"} & kernels(result)
     assert {"particles", "integrate", "planes", "guards"} <= kernels(result)
-    assert result["arrays"] == {"spring_pairs": False, "plane_normal": True, "particle_inv_mass": True}
+    assert result["arrays"] == {"spring_pairs": False, "plane_normal": True, "particle_inv_mass": True,
+                                "body_inv_mass": False, "body_inv_inertia": False}
     assert result["force"] == 0          # no force term: no force accumulator either
+    assert result["fields"] == ["particle_x", "particle_v"]
+
+
+def test_rigid_only_scene_loads_no_particle_spring_or_plane_kernels():
+    """Bodies do not touch planes yet (body contacts come with the collision issue), so a
+    bodies-only scene with a ground runs only the rigid, integrate and guard modules."""
+    result = probe("bodies_only")
+    assert kernels(result) == {"rigid", "integrate", "guards"}
+    assert result["arrays"]["body_inv_inertia"] and not result["arrays"]["particle_inv_mass"]
+    assert result["force"] == 0 and result["body_force"] == 0
+    assert result["fields"] == ["body_x", "body_q", "body_P", "body_L"]
+
+
+def test_mixed_scene_has_both_components():
+    result = probe("mixed")
+    assert {"rigid", "particles", "integrate", "guards", "planes"} <= kernels(result)
+    assert result["fields"] == ["particle_x", "particle_v", "body_x", "body_q", "body_P", "body_L"]
 
 
 def test_springs_are_loaded_when_present():

@@ -6,7 +6,9 @@ from .guards import SimulationDiverged
 from .integrators import INTEGRATORS
 from .model import Model, State
 from .scene import Scene
+from .shapes import Box, Capsule, Cylinder, MassProperties, MeshShape, PointMasses, Shape, Sphere
 from .simulator import Simulator
 
 __version__ = "0.1.0"
-__all__ = ["Scene", "Simulator", "Model", "State", "SimulationDiverged", "INTEGRATORS", "__version__"]
+__all__ = ["Scene", "Simulator", "Model", "State", "SimulationDiverged", "INTEGRATORS", "Shape", "Sphere", "Box",
+           "Capsule", "Cylinder", "MeshShape", "PointMasses", "MassProperties", "__version__"]

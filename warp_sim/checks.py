@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -96,3 +97,18 @@ def choice(name: str, value, options) -> str:
     if value not in options:
         raise fail(name, value, f"expected one of {', '.join(repr(o) for o in options)}")
     return value
+
+
+def unit_quaternion(name: str, value) -> np.ndarray:
+    """A finite non-zero quaternion (x, y, z, w), normalised.
+
+    A norm off 1 by more than 1e-6 is normalised with a UserWarning naming the
+    argument (typed-in values such as 0.7071 are common); zero is rejected.
+    """
+    q = finite_array(name, value, (4,))
+    norm = float(np.linalg.norm(q))
+    if norm == 0.0:
+        raise fail(name, value, "a rotation quaternion (x, y, z, w) must be non-zero, e.g. (0, 0, 0, 1)")
+    if abs(norm - 1.0) > 1e-6:
+        warnings.warn(f"{name}={_show(value)} has norm {norm:.9g}; normalised to a unit quaternion", stacklevel=3)
+    return q / norm

@@ -1,14 +1,27 @@
-"""The demo scene: particles bouncing on the ground and a spring chain hanging from a pinned particle."""
+"""The demo scene: particles bouncing on the ground, a spring chain hanging from a pinned particle,
+and rigid bodies thrown tumbling into the air."""
 from __future__ import annotations
 
 import numpy as np
+import trimesh
 
+from . import shapes
 from .scene import Scene
+
+# Rigid bodies do not collide yet, so they are thrown high enough (19 m/s, a 3.9 s flight) to be
+# in the air for the whole default 4 s demo. The slab spins about its intermediate axis and flips.
+THROWN_BODIES = (
+    ("slab", shapes.Box((0.05, 0.15, 0.3)), (-3.0, 0.5, -1.0), (0.4, 19.0, 0.2), (0.05, 12.0, 0.05)),
+    ("ball", shapes.Sphere(0.15), (-3.0, 0.5, 0.0), (0.6, 19.2, 0.0), (4.0, 0.0, 2.0)),
+    ("capsule", shapes.Capsule(0.08, 0.2), (-3.0, 0.5, 1.0), (0.5, 18.8, -0.2), (6.0, 1.0, 3.0)),
+    ("drum", shapes.Cylinder(0.2, 0.08), (-4.0, 0.5, -0.5), (0.9, 19.1, 0.1), (1.0, 8.0, 5.0)),
+)
 
 
 def demo_scene(particles: int = 200, chain_links: int = 20, seed: int = 0) -> Scene:
-    """A ground plane, `particles` balls thrown up from a box, and a chain of `chain_links`
-    springs hanging from a pinned particle at (0, 3, 0), kicked sideways."""
+    """A ground plane, `particles` balls thrown up from a box, a chain of `chain_links` springs
+    hanging from a pinned particle at (2.5, 3, 0), kicked sideways, and five rigid bodies (a slab,
+    a ball, a capsule, a drum and a torus mesh) thrown spinning into the air."""
     rng = np.random.default_rng(seed)
     scene = Scene(gravity=(0.0, -9.81, 0.0), drag=0.001)
     scene.add_ground(restitution=0.7, friction=0.3)
@@ -22,4 +35,10 @@ def demo_scene(particles: int = 200, chain_links: int = 20, seed: int = 0) -> Sc
     ids = scene.add_particles(chain, kick, mass=0.05, radius=0.02, pinned=[0], name="chain",
                               color=(0.2, 0.5, 0.9))
     scene.add_springs(np.stack([ids[:-1], ids[1:]], axis=1), stiffness=2000.0, damping=0.5)
+    for name, shape, position, velocity, spin in THROWN_BODIES:
+        scene.add_rigid_body(shape, density=500.0, position=position, linear_velocity=velocity,
+                             angular_velocity=spin, name=name, color=(0.3, 0.7, 0.4))
+    scene.add_rigid_body(shapes.MeshShape(trimesh.creation.torus(0.2, 0.06)), density=500.0,
+                         position=(-4.0, 0.5, 0.5), linear_velocity=(0.8, 18.9, -0.1),
+                         angular_velocity=(5.0, 2.0, 0.5), name="torus", color=(0.8, 0.7, 0.2))
     return scene

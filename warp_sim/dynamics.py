@@ -8,12 +8,19 @@ here and needs no change to any solver.
 """
 from __future__ import annotations
 
+import numpy as np
 import warp as wp
 
+from .kernels import guards as guard_kernels
 from .kernels import integrate
 from .kernels import particles as particle_kernels
+from .kernels import rigid as rigid_kernels
 from .kernels import springs as spring_kernels
 from .model import Field, Model, State, StateLayout
+
+
+def _show(values, unit: str) -> str:
+    return f"{np.array2string(np.asarray(values, dtype=np.float64), precision=4)} {unit}".rstrip()
 
 
 class Component:
@@ -21,6 +28,8 @@ class Component:
 
     name = "component"
     fields: list[Field] = []
+    #: whether the position-block rates read the position block too (not only velocities)
+    position_rates_need_positions = False
 
     def set_initial(self, state: State) -> None:
         """Write the scene's initial values into ``state``."""
@@ -35,8 +44,15 @@ class Component:
     def post_step(self, state: State) -> None:
         """Project the state after a step (e.g. renormalise orientations)."""
 
-    def guard_arrays(self, state: State):
-        """(positions [m], velocities [m/s]) arrays the divergence guard checks."""
+    #: the divergence guard's reason codes (see kernels.guards) in this component's words
+    guard_reasons = {0: "non-finite position", 1: "non-finite velocity", 2: "speed above max_speed"}
+
+    def guard_inputs(self, state: State):
+        """(guard kernel, its leading inputs): the kernel takes these, then max_speed, step and the records."""
+        raise NotImplementedError
+
+    def describe(self, state: State, element: int) -> str:
+        """The current values of one element, for error messages."""
         raise NotImplementedError
 
 
@@ -65,12 +81,78 @@ class Particles(Component):
     def position_derivative(self, positions: State, velocities: State, out: State) -> None:
         self.model.launch(integrate.copy, self.model.particle_count, [velocities.particle_v, out.particle_x])
 
-    def guard_arrays(self, state: State):
-        return state.particle_x, state.particle_v
+    def guard_inputs(self, state: State):
+        return guard_kernels.check_finite_and_bounded, [state.particle_x, state.particle_v]
+
+    def describe(self, state: State, element: int) -> str:
+        return (f"x = {_show(state.particle_x.numpy()[element], 'm')}, "
+                f"v = {_show(state.particle_v.numpy()[element], 'm/s')}")
+
+
+class RigidBodies(Component):
+    """Rigid bodies, the lecture's S = [x, R, P, L] with R as a unit quaternion q.
+
+    x' = P / M, q' = 1/2 (omega, 0) q, P' = F, L' = tau with omega = R I_body^-1 R^T L;
+    q is renormalised after every step.
+    """
+
+    name = "bodies"
+    position_rates_need_positions = True     # omega depends on the orientation
+    guard_reasons = {0: "non-finite position or orientation", 1: "non-finite momentum",
+                     2: "speed above max_speed"}
+
+    def __init__(self, model: Model, forces: "Forces"):
+        self.model = model
+        self.forces = forces
+        count = model.body_count
+        self.fields = [Field("body_x", "position", 3, count), Field("body_q", "position", 4, count),
+                       Field("body_P", "velocity", 3, count), Field("body_L", "velocity", 3, count)]
+
+    def set_initial(self, state: State) -> None:
+        scene, dtype = self.model.scene, self.model.numpy_scalar
+        for field, key in (("body_x", "position"), ("body_q", "orientation"), ("body_P", "momentum"),
+                           ("body_L", "angular_momentum")):
+            getattr(state, field).assign(scene.body_array(key).astype(dtype))
+
+    def velocity_derivative(self, state: State, t: float, out: State) -> None:
+        m, f = self.model, self.forces
+        m.launch(rigid_kernels.body_momentum_rates, m.body_count,
+                 [state.body_q, state.body_P, state.body_L, m.body_inv_mass, m.body_inv_inertia, m.body_drag,
+                  m.body_angular_drag, m.gravity, m.wind, m.body_user_force, m.body_user_torque, f.body_f,
+                  f.body_t, out.body_P, out.body_L])
+
+    def position_derivative(self, positions: State, velocities: State, out: State) -> None:
+        m = self.model
+        m.launch(rigid_kernels.body_position_rates, m.body_count,
+                 [positions.body_q, velocities.body_P, velocities.body_L, m.body_inv_mass, m.body_inv_inertia,
+                  out.body_x, out.body_q])
+
+    def post_step(self, state: State) -> None:
+        self.model.launch(rigid_kernels.normalize_orientations, self.model.body_count, [state.body_q])
+
+    def velocities(self, state: State, v: wp.array, omega: wp.array) -> None:
+        """Write the auxiliaries v = P / M [m/s] and omega [rad/s] of ``state`` into v and omega."""
+        m = self.model
+        m.launch(rigid_kernels.body_velocities, m.body_count,
+                 [state.body_q, state.body_P, state.body_L, m.body_inv_mass, m.body_inv_inertia, v, omega])
+
+    def guard_inputs(self, state: State):
+        return guard_kernels.check_bodies, [state.body_x, state.body_q, state.body_P, state.body_L,
+                                            self.model.body_inv_mass]
+
+    def describe(self, state: State, element: int) -> str:
+        values = {name: getattr(state, name).numpy()[element] for name in ("body_x", "body_q", "body_P", "body_L")}
+        return (f"x = {_show(values['body_x'], 'm')}, q = {_show(values['body_q'], '')}, "
+                f"P = {_show(values['body_P'], 'kg m/s')}, L = {_show(values['body_L'], 'kg m^2/s')}")
 
 
 class ForceTerm:
-    """Something that adds forces into the accumulators, given a state."""
+    """Something that adds forces into the accumulators, given a state.
+
+    ``targets``: the components whose accumulators it writes ("particles", "bodies").
+    """
+
+    targets = frozenset({"particles"})
 
     def apply(self, state: State, t: float, forces: "Forces") -> None:
         raise NotImplementedError
@@ -90,12 +172,19 @@ class Springs(ForceTerm):
 
 
 class Forces:
-    """Force accumulators, allocated only when some force term writes them (else empty arrays)."""
+    """Force accumulators, allocated only for components some force term writes (else empty arrays).
 
-    def __init__(self, model: Model, needed: bool):
-        count = model.particle_count if needed else 0
-        self.particle_f = wp.zeros(count, dtype=model.vec3, device=model.device)
-        self.arrays = [self.particle_f] if needed else []
+    particle_f [N] per particle; body_f [N] and body_t (torque about the centre of mass) [N m] per body.
+    """
+
+    def __init__(self, model: Model, targets: set):
+        def accumulator(component: str, count: int):
+            return wp.zeros(count if component in targets else 0, dtype=model.vec3, device=model.device)
+
+        self.particle_f = accumulator("particles", model.particle_count)
+        self.body_f = accumulator("bodies", model.body_count)
+        self.body_t = accumulator("bodies", model.body_count)
+        self.arrays = [a for a in (self.particle_f, self.body_f, self.body_t) if a.shape[0] > 0]
 
     def clear(self) -> None:
         for array in self.arrays:
@@ -114,11 +203,15 @@ class Dynamics:
         if model.spring_count:
             self.force_terms.append(Springs(model))
         self.force_terms.extend(extra_force_terms)
-        self.forces = Forces(model, needed=bool(self.force_terms))
+        self.forces = Forces(model, set().union(*(term.targets for term in self.force_terms)))
         self.components: list[Component] = []
         if model.particle_count:
             self.components.append(Particles(model, self.forces))
+        self.bodies = RigidBodies(model, self.forces) if model.body_count else None
+        if self.bodies is not None:
+            self.components.append(self.bodies)
         self.layout = StateLayout([field for c in self.components for field in c.fields])
+        self.position_rates_need_positions = any(c.position_rates_need_positions for c in self.components)
 
     def new_state(self) -> State:
         """A zeroed state of this system's layout on the model's device."""

@@ -10,10 +10,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from .kernels import guards as guard_kernels
 
 NO_RECORD = np.iinfo(np.int32).max
-REASONS = {0: "non-finite position", 1: "non-finite velocity", 2: "speed above max_speed"}
 
 
 class SimulationDiverged(RuntimeError):
@@ -49,9 +47,8 @@ class Guard:
             self.step_times.clear()
         self.step_times[step] = time
         for component, (first_step, first_key) in zip(self.components, self.records):
-            x, v = component.guard_arrays(state)
-            self.launch(guard_kernels.check_finite_and_bounded, x.shape[0],
-                        [x, v, self._max_speed, step, first_step, first_key])
+            kernel, inputs = component.guard_inputs(state)
+            self.launch(kernel, inputs[0].shape[0], [*inputs, self._max_speed, step, first_step, first_key])
 
     def raise_if_diverged(self, state) -> None:
         """Read the records (a device sync) and raise SimulationDiverged for the earliest bad step."""
@@ -65,8 +62,7 @@ class Guard:
             return
         step, component, key = min(found, key=lambda item: item[0])
         element, reason = divmod(key, 4)
-        x, v = (np.asarray(a.numpy()[element], dtype=np.float64) for a in component.guard_arrays(state))
-        detail = f" (now x = {np.array2string(x, precision=4)} m, v = {np.array2string(v, precision=4)} m/s)"
-        reason = REASONS[reason] + (f" = {self.max_speed:g} m/s" if reason == 2 else "")
+        detail = f" (now {component.describe(state, element)})"
+        text = component.guard_reasons[reason] + (f" = {self.max_speed:g} m/s" if reason == 2 else "")
         raise SimulationDiverged(step, self.step_times.get(step, float("nan")), component.name, element,
-                                 reason, detail)
+                                 text, detail)

@@ -17,6 +17,7 @@ from .launcher import Launcher
 from .scene import Scene
 
 SCALARS = {"float32": (wp.float32, wp.vec3f, np.float32), "float64": (wp.float64, wp.vec3d, np.float64)}
+MATRICES = {wp.float32: wp.mat33f, wp.float64: wp.mat33d}
 BLOCKS = ("position", "velocity")
 # the canonical Warp vector types of a field, by scalar type and width (vector, quaternion)
 ELEMENT_TYPES = {wp.float32: {3: wp.vec3f, 4: wp.quatf}, wp.float64: {3: wp.vec3d, 4: wp.quatd}}
@@ -82,7 +83,10 @@ class Model:
     """Constants of a scene on a device, struct-of-arrays.
 
     Arrays of a component the scene lacks are None and never allocated:
-    particles (particle_inv_mass [1/kg], particle_radius [m], particle_restitution,
+    bodies (body_inv_mass [1/kg], body_inv_inertia: I_body^-1 (mat33, body frame)
+    [1/(kg m^2)], body_drag [N s/m], body_angular_drag [N m s/rad], body_restitution,
+    body_friction; and the user's held inputs body_user_force [N] and
+    body_user_torque [N m], world frame, zero until set), particles (particle_inv_mass [1/kg], particle_radius [m], particle_restitution,
     particle_friction: empty where no particle has its own value), springs
     (spring_pairs, spring_stiffness [N/m], spring_damping [N s/m],
     spring_rest_length [m]), planes (plane_normal, plane_offset [m],
@@ -102,7 +106,11 @@ class Model:
         self.particle_count = scene.particle_count
         self.spring_count = scene.spring_count
         self.plane_count = len(scene.planes)
-        for name in ("particle_inv_mass", "particle_radius", "particle_restitution", "particle_friction",
+        self.body_count = scene.body_count
+        self.mat33 = MATRICES[self.scalar]
+        for name in ("body_inv_mass", "body_inv_inertia", "body_drag", "body_angular_drag", "body_restitution",
+                     "body_friction", "body_user_force", "body_user_torque",
+                     "particle_inv_mass", "particle_radius", "particle_restitution", "particle_friction",
                      "spring_pairs", "spring_stiffness", "spring_damping", "spring_rest_length",
                      "plane_normal", "plane_offset", "plane_restitution", "plane_friction"):
             setattr(self, name, None)
@@ -110,6 +118,8 @@ class Model:
             self._build_particles(scene)
         if self.spring_count:
             self._build_springs(scene)
+        if self.body_count:
+            self._build_bodies(scene)
         if self.plane_count:
             self._build_planes(scene)
 
@@ -127,6 +137,14 @@ class Model:
         self.spring_pairs = _array(scene.spring_array("pairs").astype(np.int32), wp.vec2i, self.device)
         for key in ("stiffness", "damping", "rest_length"):
             setattr(self, f"spring_{key}", _array(scene.spring_array(key), self.scalar, self.device))
+
+    def _build_bodies(self, scene: Scene) -> None:
+        self.body_inv_mass = _array(1.0 / scene.body_array("mass"), self.scalar, self.device)
+        self.body_inv_inertia = _array(np.linalg.inv(scene.body_array("inertia")), self.mat33, self.device)
+        for key in ("drag", "angular_drag", "restitution", "friction"):
+            setattr(self, f"body_{key}", _array(scene.body_array(key), self.scalar, self.device))
+        self.body_user_force = wp.zeros(self.body_count, dtype=self.vec3, device=self.device)
+        self.body_user_torque = wp.zeros(self.body_count, dtype=self.vec3, device=self.device)
 
     def _build_planes(self, scene: Scene) -> None:
         planes = scene.planes

@@ -6,6 +6,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import checks
+from .rotations import quat_to_matrix
+from .shapes import MassProperties, Shape
 
 PRECISIONS = ("float32", "float64")
 
@@ -29,21 +31,48 @@ class Plane:
     friction: float
 
 
-class Scene:
-    """What to simulate: particles, springs, planes, and the global forces.
+@dataclass(frozen=True)
+class RigidBody:
+    """One rigid body as added: its shape, mass properties and initial state (world frame, SI).
 
-    gravity [m/s^2]; drag: linear drag coefficient on every particle [N s/m], the
-    force -drag (v - wind); wind: the air's velocity [m/s]; precision: "float32"
-    or "float64" for the whole simulated state.
+    position: the centre of mass [m] (the shape's origin sits at position - R com);
+    orientation: unit quaternion (x, y, z, w); momentum P [kg m/s] and angular
+    momentum L [kg m^2/s]; drag [N s/m] and angular_drag [N m s/rad]; restitution
+    and friction for contacts.
+    """
+    name: str
+    shape: Shape
+    mass: MassProperties
+    position: np.ndarray
+    orientation: np.ndarray
+    momentum: np.ndarray
+    angular_momentum: np.ndarray
+    drag: float
+    angular_drag: float
+    restitution: float
+    friction: float
+    color: tuple
+
+
+class Scene:
+    """What to simulate: particles, springs, rigid bodies, planes, and the global forces.
+
+    gravity [m/s^2]; drag: linear drag coefficient on every particle and the
+    default for every body [N s/m], the force -drag (v - wind); angular_drag: the
+    default rotational viscosity of bodies [N m s/rad], the torque
+    -angular_drag omega; wind: the air's velocity [m/s]; precision: "float32" or
+    "float64" for the whole simulated state.
     """
 
     def __init__(self, gravity=(0.0, -9.81, 0.0), precision: str = "float32", drag: float = 0.0,
-                 wind=(0.0, 0.0, 0.0)):
+                 wind=(0.0, 0.0, 0.0), angular_drag: float = 0.0):
         self.gravity = checks.vec3("gravity", gravity)
         self.precision = checks.choice("precision", precision, PRECISIONS)
         self.drag = checks.scalar("drag", drag, low=0.0)
+        self.angular_drag = checks.scalar("angular_drag", angular_drag, low=0.0)
         self.wind = checks.vec3("wind", wind)
         self.particle_groups: list[ParticleGroup] = []
+        self.bodies: list[RigidBody] = []
         self.planes: list[Plane] = []
         self._particles: dict[str, list[np.ndarray]] = {key: [] for key in (
             "position", "velocity", "mass", "radius", "pinned", "restitution", "friction")}
@@ -144,6 +173,65 @@ class Scene:
             self._springs[key].append(chunk)
         return np.arange(start, start + count)
 
+    # rigid bodies --------------------------------------------------------------
+    @property
+    def body_count(self) -> int:
+        return len(self.bodies)
+
+    def add_rigid_body(self, shape: Shape, density: float | None = None, mass: float | None = None,
+                       position=(0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0),
+                       linear_velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0),
+                       restitution: float = 0.5, friction: float = 0.4, drag: float | None = None,
+                       angular_drag: float | None = None, name: str | None = None,
+                       color=(0.6, 0.6, 0.65)) -> int:
+        """Add a rigid body; returns its body index.
+
+        shape: a ws.Sphere, Box, Capsule, Cylinder, MeshShape or PointMasses; density
+        [kg/m^3] or mass [kg] (one of them; density 1000 when neither); position: where
+        the shape's own origin goes [m] (for a mesh or point masses the body's centre of
+        mass then lies at position + R com); orientation: quaternion (x, y, z, w),
+        normalised with a warning if off unit length; linear_velocity of the centre of
+        mass [m/s] and angular_velocity [rad/s], world frame; restitution in [0, 1],
+        friction >= 0; drag [N s/m] and angular_drag [N m s/rad] default to the scene's.
+        """
+        if not isinstance(shape, Shape):
+            raise checks.fail("shape", shape, "expected a warp_sim shape: Sphere, Box, Capsule, Cylinder, "
+                                              "MeshShape or PointMasses")
+        properties = shape.mass_properties(density=density, mass=mass)
+        q = checks.unit_quaternion("orientation", orientation)
+        R = quat_to_matrix(q)
+        inertia_world = R @ properties.inertia @ R.T
+        label = name or f"body{len(self.bodies)}"
+        if any(body.name == label for body in self.bodies):
+            raise checks.fail("name", label, "body names must be unique")
+        body = RigidBody(
+            name=label, shape=shape, mass=properties,
+            position=checks.vec3("position", position) + R @ properties.com,
+            orientation=q,
+            momentum=properties.mass * checks.vec3("linear_velocity", linear_velocity),
+            angular_momentum=inertia_world @ checks.vec3("angular_velocity", angular_velocity),
+            drag=self.drag if drag is None else checks.scalar("drag", drag, low=0.0),
+            angular_drag=self.angular_drag if angular_drag is None else checks.scalar(
+                "angular_drag", angular_drag, low=0.0),
+            restitution=checks.scalar("restitution", restitution, low=0.0, high=1.0),
+            friction=checks.scalar("friction", friction, low=0.0),
+            color=tuple(checks.finite_array("color", color, (3,))),
+        )
+        self.bodies.append(body)
+        return len(self.bodies) - 1
+
+    def body_array(self, key: str) -> np.ndarray:
+        """One per-body quantity stacked over the bodies: position (B, 3) [m], orientation (B, 4),
+        momentum (B, 3), angular_momentum (B, 3), drag, angular_drag, restitution, friction (B,);
+        and from the mass properties: mass (B,) [kg], inertia (B, 3, 3) body frame [kg m^2]."""
+        if key == "mass":
+            return np.array([body.mass.mass for body in self.bodies])
+        if key == "inertia":
+            return np.array([body.mass.inertia for body in self.bodies]).reshape(-1, 3, 3)
+        values = [getattr(body, key) for body in self.bodies]
+        width = {"position": 3, "orientation": 4, "momentum": 3, "angular_momentum": 3}.get(key)
+        return np.array(values, dtype=np.float64).reshape((-1, width) if width else (-1,))
+
     # planes --------------------------------------------------------------------
     def add_plane(self, normal, offset: float = 0.0, restitution: float = 0.5, friction: float = 0.4,
                   name: str | None = None) -> int:
@@ -169,5 +257,5 @@ class Scene:
         return self.add_plane((0.0, 1.0, 0.0), 0.0, restitution, friction, name="Ground")
 
     def __repr__(self) -> str:
-        return (f"Scene({self.particle_count} particles, {self.spring_count} springs, "
+        return (f"Scene({self.particle_count} particles, {self.spring_count} springs, {self.body_count} bodies, "
                 f"{len(self.planes)} planes, {self.precision})")

@@ -1,6 +1,7 @@
 """Simulator: builds a scene on a device and advances it; step, run, guards, progress, USD."""
 from __future__ import annotations
 
+import numpy as np
 import warp as wp
 
 from . import checks
@@ -8,6 +9,7 @@ from .collision import RESPONSES, PlaneImpacts, PlanePenalty
 from .dynamics import Dynamics
 from .guards import Guard, SimulationDiverged
 from .integrators import make_integrator
+from .kernels import rigid as rigid_kernels
 from .model import Model
 from .scene import Scene
 
@@ -24,8 +26,23 @@ def resolve_device(device: str | None) -> str:
     return device
 
 
+def body_spec(index: int, body):
+    """The USD BodySpec of one scene body: its shape drawn in the body frame (centre of mass at the origin)."""
+    from .stages import BodySpec
+
+    shape, com = body.shape, body.mass.com
+    points = faces = None
+    radius = 0.02
+    if shape.kind == "mesh":
+        points, faces = shape.vertices - com, shape.faces
+    elif shape.kind == "points":
+        points, radius = shape.positions - com, shape.radius
+    return BodySpec(body.name, index, shape.kind, tuple(shape.size), points=points, faces=faces, radius=radius,
+                    color=body.color)
+
+
 def stage_layout(scene: Scene):
-    """The USD StageLayout of a scene: its particle groups, springs and planes."""
+    """The USD StageLayout of a scene: its particle groups, springs, bodies and planes."""
     from .stages import PlaneSpec, PointsGroup, StageLayout
 
     radius = scene.particle_array("radius")
@@ -33,7 +50,8 @@ def stage_layout(scene: Scene):
                    for g in scene.particle_groups)
     planes = tuple(PlaneSpec(p.name, tuple(p.normal), p.offset) for p in scene.planes)
     springs = scene.spring_array("pairs") if scene.spring_count else None
-    return StageLayout(points_groups=groups, springs=springs, planes=planes)
+    bodies = tuple(body_spec(index, body) for index, body in enumerate(scene.bodies))
+    return StageLayout(points_groups=groups, springs=springs, planes=planes, bodies=bodies)
 
 
 class Simulator:
@@ -55,16 +73,17 @@ class Simulator:
                  max_speed: float = 1.0e4):
         if not isinstance(scene, Scene):
             raise checks.fail("scene", scene, "expected a warp_sim.Scene")
-        if scene.particle_count == 0:
-            raise checks.fail("scene", scene, "the scene has nothing to simulate; add particles first")
+        if scene.particle_count == 0 and scene.body_count == 0:
+            raise checks.fail("scene", scene, "the scene has nothing to simulate; add particles or bodies first")
         contact = checks.choice("contact", contact, RESPONSES)
         stiffness = checks.scalar("penalty_stiffness", penalty_stiffness, low=0.0, low_open=True)
         speed = checks.scalar("max_speed", max_speed, low=0.0, low_open=True)
         self.model = Model(scene, resolve_device(device))
-        penalty = [PlanePenalty(self.model, stiffness)] if contact == "penalty" and self.model.plane_count else []
+        particle_planes = self.model.plane_count > 0 and self.model.particle_count > 0
+        penalty = [PlanePenalty(self.model, stiffness)] if contact == "penalty" and particle_planes else []
         self.dynamics = Dynamics(self.model, penalty)
         self.integrator = make_integrator(integrator, self.dynamics)
-        self.impacts = PlaneImpacts(self.model) if contact == "impulse" and self.model.plane_count else None
+        self.impacts = PlaneImpacts(self.model) if contact == "impulse" and particle_planes else None
         self.state = self.dynamics.initial_state()
         self._next = self.dynamics.new_state()
         self.guard = Guard(self.model, self.dynamics.components, speed) if guard else None
@@ -75,9 +94,62 @@ class Simulator:
     def device(self):
         return self.model.device
 
-    def step(self, dt: float) -> None:
-        """Advance by one step of dt seconds, then check the guards."""
-        self._advance(checks.scalar("dt", dt, low=0.0, low_open=True))
+    # rigid bodies -------------------------------------------------------------
+    def _body(self, body) -> int:
+        if isinstance(body, bool) or not isinstance(body, (int, np.integer)) or not 0 <= body < self.model.body_count:
+            raise checks.fail("body", body, f"expected a body index in [0, {self.model.body_count})")
+        return int(body)
+
+    def apply_impulse(self, body: int, impulse, point=None) -> None:
+        """Apply impulse J [N s] at world point p [m] (default: the centre of mass) to a body now:
+        P += J and L += (p - x) x J, changing v by J / M and omega by I^-1 ((p - x) x J)."""
+        index = self._body(body)
+        J = checks.vec3("impulse", impulse)
+        x = self.state.body_x.numpy()[index].astype(np.float64)
+        p = x if point is None else checks.vec3("point", point)
+        m = self.model
+        wp.launch(rigid_kernels.apply_impulse, 1, [index, m.vec3(*J), m.vec3(*p), self.state.body_x,
+                                                  self.state.body_P, self.state.body_L], device=m.device)
+
+    def set_body_force(self, body: int, force=(0.0, 0.0, 0.0), point=None, torque=(0.0, 0.0, 0.0)) -> None:
+        """Hold a force [N] at world point ``point`` [m] (default: the centre of mass) and a pure torque
+        [N m] on a body from now until changed: it adds F and tau = (p - x) x F + torque, with x the
+        centre of mass now. Replaces the body's previous held force; zero arguments clear it."""
+        index = self._body(body)
+        F = checks.vec3("force", force)
+        tau = checks.vec3("torque", torque)
+        if point is not None:
+            x = self.state.body_x.numpy()[index].astype(np.float64)
+            tau = tau + np.cross(checks.vec3("point", point) - x, F)
+        m = self.model
+        wp.copy(m.body_user_force, wp.array([F], dtype=m.vec3, device=m.device), dest_offset=index, count=1)
+        wp.copy(m.body_user_torque, wp.array([tau], dtype=m.vec3, device=m.device), dest_offset=index, count=1)
+
+    def body_velocities(self):
+        """(v [m/s], omega [rad/s]): the current linear and angular velocities of every body, world
+        frame, as new device arrays of vec3 (v = P / M, omega = R I_body^-1 R^T L)."""
+        m = self.model
+        v = wp.empty(m.body_count, dtype=m.vec3, device=m.device)
+        omega = wp.empty(m.body_count, dtype=m.vec3, device=m.device)
+        if self.dynamics.bodies is not None:
+            self.dynamics.bodies.velocities(self.state, v, omega)
+        return v, omega
+
+    def body_rotations(self):
+        """R(t): every body's 3x3 rotation matrix (body to world), a new device array of mat33."""
+        m = self.model
+        R = wp.empty(m.body_count, dtype=m.mat33, device=m.device)
+        if m.body_count:
+            wp.launch(rigid_kernels.rotation_matrices, m.body_count, [self.state.body_q, R], device=m.device)
+        return R
+
+    def step(self, dt: float, steps: int = 1) -> None:
+        """Advance by ``steps`` steps of dt seconds each, then check the guards once."""
+        h = checks.scalar("dt", dt, low=0.0, low_open=True)
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+            raise checks.fail("steps", steps, "expected an integer >= 1")
+        for _ in range(steps):
+            self._advance(h)
         self.check()
 
     def check(self) -> None:
@@ -95,6 +167,14 @@ class Simulator:
         self.time += h
         if self.guard is not None:
             self.guard.record(self.state, self.step_count, self.time)
+
+    def _frame_arrays(self) -> dict:
+        """The current state's arrays the stage writer takes, as numpy."""
+        names = [name for name, count in (("particle_x", self.model.particle_count),
+                                          ("particle_v", self.model.particle_count),
+                                          ("body_x", self.model.body_count), ("body_q", self.model.body_count))
+                 if count]
+        return {name: getattr(self.state, name).numpy() for name in names}
 
     def run(self, seconds: float, fps: float = 60.0, substeps: int = 8, usd=None, progress: bool = True,
             chunk_frames: int = 240):
@@ -129,7 +209,7 @@ class Simulator:
                         self.time = start_time + frame / fps
                         self.check()
                     if writer is not None:
-                        writer.write_frame(frame, self.state.particle_x.numpy(), self.state.particle_v.numpy())
+                        writer.write_frame(frame, **self._frame_arrays())
                     bar.update(1)
         except SimulationDiverged:
             if writer is not None:

@@ -9,6 +9,7 @@ Topics:
 - ``integrate``: element-wise combinations of flat state buffers (the ODE solvers' arithmetic)
 - ``particles``: the particle derivative (gravity, drag, wind, accumulated forces)
 - ``springs``: the damped Hooke spring forces
+- ``rigid``: rigid-body rates (x, q, P, L), orientation renormalisation, impulses, derived v, omega and R
 - ``planes``: particle-plane contacts, time-of-impact impulse and penalty responses
 - ``guards``: detection of non-finite or runaway states
 """

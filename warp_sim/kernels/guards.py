@@ -3,9 +3,18 @@ from typing import Any
 
 import warp as wp
 
+wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
 REASON_POSITION = wp.constant(0)  # position not finite
 REASON_VELOCITY = wp.constant(1)  # velocity not finite
 REASON_SPEED = wp.constant(2)  # speed above the bound
+
+
+@wp.func
+def record_first_bad(step: int, key: int, first_step: wp.array(dtype=wp.int32), first_key: wp.array(dtype=wp.int32)):
+    """Record a bad element (key = 4 * element + reason) at step; the lowest step and key win."""
+    wp.atomic_min(first_step, 0, step)
+    wp.atomic_min(first_key, 0, key)
 
 
 @wp.kernel
@@ -41,5 +50,36 @@ def check_finite_and_bounded(
         reason = REASON_POSITION
     elif not wp.isfinite(vi):
         reason = REASON_VELOCITY
-    wp.atomic_min(first_step, 0, step)
-    wp.atomic_min(first_key, 0, 4 * i + reason)
+    record_first_bad(step, 4 * i + reason, first_step, first_key)
+
+
+@wp.kernel
+def check_bodies(
+    x: wp.array(dtype=Any),
+    q: wp.array(dtype=Any),
+    P: wp.array(dtype=Any),
+    L: wp.array(dtype=Any),
+    inv_mass: wp.array(dtype=Any),
+    max_speed: Any,
+    step: int,
+    first_step: wp.array(dtype=wp.int32),
+    first_key: wp.array(dtype=wp.int32),
+):
+    """The rigid-body form of check_finite_and_bounded: position means x and q, velocity
+    means P and L, and the speed is |P| / M [m/s]."""
+    i = wp.tid()
+    if first_step[0] < step:
+        return
+    qi = q[i]
+    v = P[i] * inv_mass[i]
+    speed_squared = wp.dot(v, v)
+    position_ok = wp.isfinite(x[i]) and wp.isfinite(qi)
+    velocity_ok = wp.isfinite(P[i]) and wp.isfinite(L[i])
+    if position_ok and velocity_ok and speed_squared <= max_speed * max_speed:
+        return
+    reason = REASON_SPEED
+    if not position_ok:
+        reason = REASON_POSITION
+    elif not velocity_ok:
+        reason = REASON_VELOCITY
+    record_first_bad(step, 4 * i + reason, first_step, first_key)

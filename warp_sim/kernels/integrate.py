@@ -7,6 +7,8 @@ from typing import Any
 
 import warp as wp
 
+wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
 
 @wp.kernel
 def axpy(y: wp.array(dtype=Any), h: Any, dy: wp.array(dtype=Any), out: wp.array(dtype=Any)):

@@ -9,6 +9,8 @@ from typing import Any
 
 import warp as wp
 
+wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
 MAX_EVENTS = wp.constant(4)  # contacts resolved per particle per step before the final projection
 
 

@@ -3,6 +3,8 @@ from typing import Any
 
 import warp as wp
 
+wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
 
 @wp.kernel
 def spring_forces(

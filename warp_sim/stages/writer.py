@@ -1,12 +1,20 @@
-"""Frame-by-frame USD animation writer fed with numpy particle arrays.
+"""Frame-by-frame USD animation writer fed with numpy particle and rigid-body arrays.
 
 Units are SI: metres, seconds, kilograms (metersPerUnit = kilogramsPerUnit = 1),
 Y up. Frame ``k`` is written at time code ``k``; ``timeCodesPerSecond`` and
 ``framesPerSecond`` both equal the writer's ``fps``.
 
 Each prim kind is a small ``_PrimWriter`` subclass with a define-once step
-(``define``) and a per-frame step (``write``); new kinds (rigid-body Xforms,
-cloth Meshes, ...) are further subclasses added in ``_prim_writers``.
+(``define``) and a per-frame step (``write``); new kinds (cloth Meshes, ...)
+are further subclasses added in ``_prim_writers``.
+
+A rigid body is a ``UsdGeom.Xform`` whose ``xformOp:translate`` (centre of
+mass, metres, double) and ``xformOp:orient`` (unit quaternion, float) are
+sampled every frame, with its shape as a static child ``Geom``. Body samples
+are authored at the Sdf level (``Sdf.Layer.SetTimeSample``) inside one
+``Sdf.ChangeBlock`` per frame, from ``Vt`` arrays built once per frame: with
+1000 bodies that measured about 10-13 ms/frame against 20-25 ms for
+``Usd.Attribute.Set`` (and 30-45 ms when building ``Gf`` values per body).
 
 The stage is built in a hidden temporary file next to the final path, saved
 every ``chunk_frames`` frames, and moved onto the final path by ``close()``
@@ -18,12 +26,17 @@ from __future__ import annotations
 import math
 import os
 import pathlib
+from collections import Counter
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom, UsdPhysics, Vt
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdPhysics, Vt
 
-__all__ = ["PointsGroup", "PlaneSpec", "StageLayout", "StageWriter"]
+if TYPE_CHECKING:
+    from typing_extensions import Self  # typing.Self needs Python 3.11
+
+__all__ = ["BodySpec", "PlaneSpec", "PointsGroup", "StageLayout", "StageWriter"]
 
 #: USD file extensions accepted by the writer (the format follows the extension).
 USD_EXTENSIONS = (".usd", ".usdc", ".usda")
@@ -58,8 +71,31 @@ class PlaneSpec:
 
 
 @dataclass(frozen=True)
+class BodySpec:
+    """One rigid body: an Xform at /World/Bodies/<name> driven by body_x[index], body_q[index].
+
+    ``size`` in metres: sphere ``(radius,)``; box half extents ``(hx, hy, hz)``;
+    capsule and cylinder ``(radius, half_height)`` along the body's Y axis;
+    empty for mesh and points. ``points`` (metres, body frame with the centre of
+    mass at the origin) and ``faces`` (triangle vertex indices) describe a mesh;
+    ``points`` alone a body of point masses drawn with ``radius`` (metres).
+    ``color`` is the linear-RGB displayColor in 0..1; ``name`` is made a valid
+    USD identifier with ``Tf.MakeValidIdentifier``.
+    """
+
+    name: str
+    index: int                          # row in the per-frame body_x (B, 3) and body_q (B, 4; x y z w) arrays
+    kind: str                           # "sphere" | "box" | "capsule" | "cylinder" | "mesh" | "points"
+    size: tuple = ()                    # [m] sphere (r,); box (hx, hy, hz); capsule/cylinder (r, half_height)
+    points: np.ndarray | None = None    # [m] mesh: (V, 3) vertices, body frame; points: (N, 3) positions
+    faces: np.ndarray | None = None     # mesh: (F, 3) triangle vertex indices
+    radius: float = 0.02                # points: drawn radius [m]
+    color: tuple = (0.6, 0.6, 0.6)
+
+
+@dataclass(frozen=True)
 class StageLayout:
-    """What the stage contains: particle groups, spring segments, static planes.
+    """What the stage contains: particle groups, spring segments, static planes, rigid bodies.
 
     ``springs`` is ``(K, 2)`` global particle indices (or None); ``spring_width``
     is the drawn curve width in metres.
@@ -69,6 +105,18 @@ class StageLayout:
     springs: np.ndarray | None = None
     spring_width: float = 0.005
     planes: tuple[PlaneSpec, ...] = ()
+    bodies: tuple[BodySpec, ...] = ()
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """One checked frame: time code, particle x [m] and v [m/s] (N, 3), body x [m] and unit q as Vt arrays; or None."""
+
+    time: float
+    particle_x: np.ndarray | None
+    particle_v: np.ndarray | None
+    body_x: Vt.Vec3dArray | None
+    body_q: Vt.QuatfArray | None
 
 
 # --------------------------------------------------------------------------- helpers
@@ -96,6 +144,24 @@ def _require(ok: bool, message: str) -> None:
         raise ValueError(message)
 
 
+def _color(label: str, color) -> np.ndarray:
+    """``color`` as 3 finite floats, else ValueError."""
+    c = np.asarray(color, dtype=np.float64)
+    _require(c.shape == (3,) and bool(np.all(np.isfinite(c))), f"{label}: color must be 3 finite floats, got {color!r}")
+    return c
+
+
+def _rows(frame: int, name: str, a, width: int, min_rows: int, what: str) -> np.ndarray:
+    """``a`` as a finite (n, width) array with n >= min_rows, else ValueError naming the first bad row."""
+    a = np.asarray(a)
+    _require(a.ndim == 2 and a.shape[1] == width and a.shape[0] >= min_rows,
+             f"frame {frame}: {name} must have shape (N, {width}) with N >= {min_rows}, got {a.shape}")
+    bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
+    if bad.size:
+        raise ValueError(f"frame {frame}: {name} has a non-finite value at {what} index {bad[0]}")
+    return a
+
+
 # --------------------------------------------------------------------------- prim writers
 
 
@@ -103,17 +169,21 @@ class _PrimWriter:
     """One prim (or prim family) on the stage.
 
     ``define`` authors everything that never changes; ``write`` authors the
-    time samples of one frame from all-particle arrays ``x``/``v`` ((N, 3),
-    metres and metres/second). ``min_particles`` is the smallest N it accepts.
+    time samples of one ``_Frame``. ``min_particles`` / ``min_bodies`` are the
+    smallest particle / body array lengths it needs (0: it reads none).
+    ``sdf_only`` writers author with Sdf API only, so a frame batches them in
+    one ``Sdf.ChangeBlock`` (where Usd API is unsafe).
     """
 
     path: Sdf.Path
     min_particles: int = 0
+    min_bodies: int = 0
+    sdf_only: bool = False
 
     def define(self, stage: Usd.Stage) -> None:
         raise NotImplementedError
 
-    def write(self, time: Usd.TimeCode, x: np.ndarray, v: np.ndarray) -> None:
+    def write(self, frame: _Frame) -> None:
         """Author one frame's samples; static prims keep this no-op."""
 
 
@@ -123,15 +193,13 @@ class _PointsWriter(_PrimWriter):
     def __init__(self, group: PointsGroup):
         start, count = int(group.start), int(group.count)
         widths = np.asarray(group.widths, dtype=np.float64)
-        color = np.asarray(group.color, dtype=np.float64)
         label = f"PointsGroup {group.name!r}"
         _require(start >= 0 and count >= 1,
                  f"{label}: start must be >= 0 and count >= 1, got start={start}, count={count}")
         _require(widths.shape == (count,), f"{label}: widths must have shape ({count},), got {widths.shape}")
         _require(bool(np.all(np.isfinite(widths)) and np.all(widths >= 0)),
                  f"{label}: widths must be finite and >= 0")
-        _require(color.shape == (3,) and bool(np.all(np.isfinite(color))),
-                 f"{label}: color must be 3 finite floats, got {group.color!r}")
+        color = _color(label, group.color)
         self.path = WORLD_PATH.AppendPath(Sdf.Path(f"Particles/{_identifier(group.name)}"))
         self.slice = slice(start, start + count)
         self.min_particles = start + count
@@ -144,12 +212,12 @@ class _PointsWriter(_PrimWriter):
         self.prim = UsdGeom.Points.Define(stage, self.path)
         self.color_primvar = self.prim.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex)
 
-    def write(self, time: Usd.TimeCode, x: np.ndarray, v: np.ndarray) -> None:
-        p = x[self.slice]
+    def write(self, frame: _Frame) -> None:
+        time, p = frame.time, frame.particle_x[self.slice]
         self.prim.CreatePointsAttr().Set(_vec3f(p), time)
         self.prim.CreateIdsAttr().Set(self.ids, time)
         self.prim.CreateWidthsAttr().Set(self.widths, time)
-        self.prim.CreateVelocitiesAttr().Set(_vec3f(v[self.slice]), time)
+        self.prim.CreateVelocitiesAttr().Set(_vec3f(frame.particle_v[self.slice]), time)
         self.color_primvar.Set(self.colors, time)
         self.prim.CreateExtentAttr().Set(_extent(p - self.radii, p + self.radii), time)
 
@@ -177,8 +245,8 @@ class _SpringsWriter(_PrimWriter):
         self.prim.CreateWidthsAttr(_floats([self.width]))
         self.prim.SetWidthsInterpolation(UsdGeom.Tokens.constant)
 
-    def write(self, time: Usd.TimeCode, x: np.ndarray, v: np.ndarray) -> None:
-        p = x[self.springs.reshape(-1)]
+    def write(self, frame: _Frame) -> None:
+        time, p = frame.time, frame.particle_x[self.springs.reshape(-1)]
         self.prim.CreatePointsAttr().Set(_vec3f(p), time)
         self.prim.CreateExtentAttr().Set(_extent(p - self.half_width, p + self.half_width), time)
 
@@ -216,14 +284,111 @@ class _PlaneWriter(_PrimWriter):
         mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
 
 
+#: Number of ``BodySpec.size`` values per body kind, and what they are.
+BODY_SIZES = {"sphere": (1, "(radius,)"), "box": (3, "half extents (hx, hy, hz)"),
+              "capsule": (2, "(radius, half_height)"), "cylinder": (2, "(radius, half_height)"),
+              "mesh": (0, "() (the shape is in points/faces)"), "points": (0, "() (the shape is in points)")}
+
+#: Largest accepted deviation of a body_q row's norm from 1.
+QUAT_NORM_TOLERANCE = 1e-3
+
+
+class _BodyWriter(_PrimWriter):
+    """A rigid body: an Xform with ``xformOp:translate`` (double, metres) and ``xformOp:orient``
+    (float quaternion) sampled per frame, and its shape as a static child gprim ``Geom``."""
+
+    sdf_only = True
+
+    def __init__(self, body: BodySpec):
+        kind, label = body.kind, f"BodySpec {body.name!r}"
+        _require(kind in BODY_SIZES, f"{label}: kind must be one of {', '.join(BODY_SIZES)}, got {kind!r}")
+        _require(isinstance(body.index, (int, np.integer)) and not isinstance(body.index, bool) and body.index >= 0,
+                 f"{label}: index must be an integer >= 0, got {body.index!r}")
+        count, meaning = BODY_SIZES[kind]
+        size = np.asarray(body.size, dtype=np.float64)
+        _require(size.shape == (count,) and bool(np.all(np.isfinite(size)) and np.all(size > 0)),
+                 f"{label}: size of a {kind} must be {meaning}: {count} finite values > 0 [m], got {body.size!r}")
+        shaped = kind in ("mesh", "points")
+        _require((body.points is not None) == shaped,
+                 f"{label}: points are {'required' if shaped else 'not used'} for a {kind} body")
+        _require((body.faces is not None) == (kind == "mesh"),
+                 f"{label}: faces are {'required' if kind == 'mesh' else 'not used'} for a {kind} body")
+        self.kind, self.size, self.color = kind, size, _color(label, body.color)
+        self.index = int(body.index)
+        self.min_bodies = self.index + 1
+        self.path = WORLD_PATH.AppendPath(Sdf.Path(f"Bodies/{_identifier(body.name)}"))
+        if shaped:
+            points = np.asarray(body.points, dtype=np.float64)
+            _require(points.ndim == 2 and points.shape[1] == 3 and len(points) >= 1 and bool(np.isfinite(points).all()),
+                     f"{label}: points must be a finite (N, 3) array with N >= 1 [m], got shape {points.shape}")
+            self.points = points
+        if kind == "mesh":
+            faces = np.asarray(body.faces)
+            _require(faces.ndim == 2 and faces.shape[1] == 3 and len(faces) >= 1
+                     and np.issubdtype(faces.dtype, np.integer),
+                     f"{label}: faces must be an integer (F, 3) array with F >= 1, got {faces.dtype} {faces.shape}")
+            _require(int(faces.min()) >= 0 and int(faces.max()) < len(points),
+                     f"{label}: faces must index the {len(points)} points (0 .. {len(points) - 1}), "
+                     f"got indices {int(faces.min())} .. {int(faces.max())}")
+            self.faces = faces.astype(np.int32)
+        if kind == "points":
+            _require(math.isfinite(body.radius) and body.radius > 0,
+                     f"{label}: radius must be finite and > 0 [m], got {body.radius!r}")
+            self.radius = float(body.radius)
+        # The child's extent [m] in its own space (before the box's scale op).
+        if shaped:
+            pad = self.radius if kind == "points" else 0.0
+            self.lo, self.hi = points.min(axis=0) - pad, points.max(axis=0) + pad
+        else:
+            r, h = size[0], size[-1]
+            half = {"sphere": (r, r, r), "box": (1.0, 1.0, 1.0), "capsule": (r, h + r, r), "cylinder": (r, h, r)}[kind]
+            self.hi = np.array(half)
+            self.lo = -self.hi
+
+    def define(self, stage: Usd.Stage) -> None:
+        xform = UsdGeom.Xform.Define(stage, self.path)
+        self.translate = xform.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble).GetAttr().GetPath()
+        self.orient = xform.AddOrientOp(UsdGeom.XformOp.PrecisionFloat).GetAttr().GetPath()
+        self.layer = stage.GetEditTarget().GetLayer()
+        path, size = self.path.AppendChild("Geom"), self.size
+        if self.kind == "sphere":
+            geom = UsdGeom.Sphere.Define(stage, path)
+            geom.CreateRadiusAttr(float(size[0]))
+        elif self.kind == "box":
+            geom = UsdGeom.Cube.Define(stage, path)
+            geom.CreateSizeAttr(2.0)
+            geom.AddScaleOp().Set(Gf.Vec3f(*size.tolist()))
+        elif self.kind in ("capsule", "cylinder"):
+            geom = (UsdGeom.Capsule if self.kind == "capsule" else UsdGeom.Cylinder).Define(stage, path)
+            geom.CreateRadiusAttr(float(size[0]))
+            geom.CreateHeightAttr(2.0 * float(size[1]))
+            geom.CreateAxisAttr(UsdGeom.Tokens.y)
+        elif self.kind == "mesh":
+            geom = UsdGeom.Mesh.Define(stage, path)
+            geom.CreatePointsAttr(_vec3f(self.points))
+            geom.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(self.faces), 3, dtype=np.int32)))
+            geom.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(self.faces.reshape(-1)))
+            geom.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+        else:
+            geom = UsdGeom.Points.Define(stage, path)
+            geom.CreatePointsAttr(_vec3f(self.points))
+            geom.CreateWidthsAttr(_floats(np.full(len(self.points), 2.0 * self.radius)))
+        geom.CreateExtentAttr(_extent(self.lo[None], self.hi[None]))
+        geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set(_vec3f(self.color))
+
+    def write(self, frame: _Frame) -> None:
+        self.layer.SetTimeSample(self.translate, frame.time, frame.body_x[self.index])
+        self.layer.SetTimeSample(self.orient, frame.time, frame.body_q[self.index])
+
+
 def _prim_writers(layout: StageLayout) -> list[_PrimWriter]:
     """All prim writers for ``layout``; add new prim kinds here."""
     writers: list[_PrimWriter] = [_PointsWriter(g) for g in layout.points_groups]
     if layout.springs is not None and np.asarray(layout.springs).size:
         writers.append(_SpringsWriter(layout.springs, layout.spring_width))
     writers += [_PlaneWriter(p) for p in layout.planes]
-    paths = [w.path for w in writers]
-    dupes = sorted({str(p) for p in paths if paths.count(p) > 1})
+    writers += [_BodyWriter(b) for b in layout.bodies]
+    dupes = sorted(str(p) for p, n in Counter(w.path for w in writers).items() if n > 1)  # linear: thousands of bodies
     _require(not dupes, f"layout names must be unique after Tf.MakeValidIdentifier; duplicated prim paths: {dupes}")
     return writers
 
@@ -252,7 +417,10 @@ class StageWriter:
         self._fps = float(fps)
         self._chunk_frames = int(chunk_frames)
         self._writers = _prim_writers(layout)
+        self._usd_writers = [w for w in self._writers if not w.sdf_only]
+        self._sdf_writers = [w for w in self._writers if w.sdf_only]
         self._min_particles = max((w.min_particles for w in self._writers), default=0)
+        self._min_bodies = max((w.min_bodies for w in self._writers), default=0)
         self._frames = 0
 
         self._path.parent.mkdir(parents=True, exist_ok=True)
@@ -291,30 +459,58 @@ class StageWriter:
         if self._stage is None:
             raise RuntimeError(f"StageWriter for {str(self._path)!r} is already closed or aborted")
 
-    def _check_arrays(self, frame: int, x, v) -> tuple[np.ndarray, np.ndarray]:
-        x, v = np.asarray(x), np.asarray(v)
-        for name, a in (("particle_x", x), ("particle_v", v)):
-            _require(a.ndim == 2 and a.shape[1] == 3 and a.shape[0] >= self._min_particles,
-                     f"frame {frame}: {name} must have shape (N, 3) with N >= {self._min_particles}, got {a.shape}")
-            bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
-            if bad.size:
-                raise ValueError(f"frame {frame}: {name} has a non-finite value at particle index {bad[0]}")
-        _require(x.shape == v.shape, f"frame {frame}: particle_x {x.shape} and particle_v {v.shape} shapes differ")
-        return x, v
+    def _check_frame(self, frame: int, particle_x, particle_v, body_x, body_q) -> _Frame:
+        """The checked arrays of ``frame``; ValueError naming the array and first bad row otherwise.
 
-    def write_frame(self, frame: int, particle_x: np.ndarray, particle_v: np.ndarray) -> None:
+        Each array is checked when given, and required when the layout needs it.
+        """
+        def rows(name, a, width, min_rows, what):
+            if a is None:
+                _require(not min_rows, f"frame {frame}: {name} is required: the layout has {what} prims")
+                return None
+            return _rows(frame, name, a, width, min_rows, what)
+
+        x = rows("particle_x", particle_x, 3, self._min_particles, "particle")
+        v = rows("particle_v", particle_v, 3, self._min_particles, "particle")
+        bx = rows("body_x", body_x, 3, self._min_bodies, "body")
+        bq = rows("body_q", body_q, 4, self._min_bodies, "body")
+        if x is not None and v is not None:
+            _require(x.shape == v.shape, f"frame {frame}: particle_x {x.shape} and particle_v {v.shape} shapes differ")
+        if bx is not None and bq is not None:
+            _require(len(bx) == len(bq),
+                     f"frame {frame}: body_x {bx.shape} and body_q {bq.shape} hold different numbers of bodies")
+        if bq is not None:
+            norm = np.linalg.norm(bq.astype(np.float64), axis=1)
+            bad = np.flatnonzero(np.abs(norm - 1.0) > QUAT_NORM_TOLERANCE)
+            if bad.size:
+                raise ValueError(f"frame {frame}: body_q has a non-unit quaternion at body index {bad[0]} "
+                                 f"(norm {norm[bad[0]]:.6g}; must be within {QUAT_NORM_TOLERANCE} of 1)")
+            # Vt.QuatfArray.FromNumpy reads rows in GfQuatf memory order (x, y, z, w), Warp's order.
+            bq = Vt.QuatfArray.FromNumpy(np.ascontiguousarray(bq / norm[:, None], dtype=np.float32))
+        if bx is not None:
+            bx = Vt.Vec3dArray.FromNumpy(np.ascontiguousarray(bx, dtype=np.float64))
+        return _Frame(float(frame), x, v, bx, bq)
+
+    def write_frame(self, frame: int, particle_x: np.ndarray | None = None, particle_v: np.ndarray | None = None,
+                    body_x: np.ndarray | None = None, body_q: np.ndarray | None = None) -> None:
         """Write frame ``frame`` (must be ``frames_written``) at time code ``frame``.
 
         ``particle_x`` (metres) and ``particle_v`` (metres/second) are (N, 3)
-        arrays of all particles. Nothing is authored unless all checks pass.
+        arrays of all particles, required when the layout has particle prims;
+        ``body_x`` (B, 3) centres of mass (metres) and ``body_q`` (B, 4) unit
+        quaternions (x, y, z, w) of all bodies, required when it has bodies
+        (rows are renormalised before writing). Nothing is authored unless all
+        checks pass.
         """
         self._check_open()
         _require(frame == self._frames,
                  f"frame must be written in order 0, 1, 2, ...: expected frame {self._frames}, got {frame!r}")
-        x, v = self._check_arrays(frame, particle_x, particle_v)
-        time = Usd.TimeCode(self._frames)
-        for writer in self._writers:
-            writer.write(time, x, v)
+        data = self._check_frame(frame, particle_x, particle_v, body_x, body_q)
+        for writer in self._usd_writers:
+            writer.write(data)
+        with Sdf.ChangeBlock():  # Sdf-level edits only: Usd API is unsafe inside a change block
+            for writer in self._sdf_writers:
+                writer.write(data)
         self._frames += 1
         if self._frames % self._chunk_frames == 0:
             self._save()
@@ -340,7 +536,7 @@ class StageWriter:
         self._stage = None
         self._tmp.unlink(missing_ok=True)
 
-    def __enter__(self) -> "StageWriter":
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
