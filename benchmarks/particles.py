@@ -11,18 +11,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
 import statistics
 import time
 from pathlib import Path
 
 import numpy as np
 import warp as wp
+from common import device_name, floor_bandwidth, pick_device, time_steps
 
-wp.config.log_level = wp.LOG_WARNING  # no per-module load messages
-
-from warp_sim import Scene, Simulator  # noqa: E402
-from warp_sim.simulator import resolve_device  # noqa: E402
+from warp_sim import Scene, Simulator
 
 DT = 1.0 / 480.0  # [s], 60 fps with 8 substeps
 STATE_BYTES = 2 * 24  # per particle and step: x and v (2 x 12 B) read once and written once
@@ -37,40 +34,6 @@ def make_scene(n: int, seed: int = 0) -> Scene:
     positions = rng.uniform((-10.0, 0.02, -10.0), (10.0, 2.0, 10.0), size=(n, 3))
     scene.add_particles(positions, rng.normal(0.0, 1.0, size=(n, 3)), mass=1.0, radius=0.01)
     return scene
-
-
-def best_rate(copy, nbytes: int, repeats: int = 7) -> float:
-    """Bytes moved (read + written) per second by copy(), best of repeats after one warm-up."""
-    copy()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        copy()
-        times.append(time.perf_counter() - start)
-    return 2 * nbytes / min(times)
-
-
-def copy_bandwidth(megabytes: int, device=None) -> float:
-    """A large float32 copy: np.copyto on the host (device None), else wp.copy between device arrays."""
-    count = megabytes * 2**20 // 4
-    if device is None:
-        src = np.ones(count, dtype=np.float32)
-        dst = np.empty_like(src)
-        return best_rate(lambda: np.copyto(dst, src), 4 * count)
-    src = wp.ones(count, dtype=wp.float32, device=device)
-    dst = wp.empty_like(src)
-    return best_rate(lambda: (wp.copy(dst, src), wp.synchronize_device(device)), 4 * count)
-
-
-def time_steps(sim: Simulator, steps: int) -> float:
-    """Seconds for `steps` steps (one guard read at the end), the device synchronised around the loop."""
-    wp.synchronize_device(sim.device)
-    start = time.perf_counter()
-    for _ in range(steps):
-        sim._advance(DT)
-    sim.check()
-    wp.synchronize_device(sim.device)
-    return time.perf_counter() - start
 
 
 def phase_breakdown(sim: Simulator, steps: int) -> dict:
@@ -105,11 +68,11 @@ def bench_size(n: int, device: str, steps: int, repeats: int, bandwidth: float) 
     sims = {guard: Simulator(scene, "symplectic_euler", device, contact="impulse", guard=guard)
             for guard in (True, False)}
     for sim in sims.values():  # compile / load the kernels, touch every buffer
-        time_steps(sim, WARMUP_STEPS)
+        time_steps(sim, WARMUP_STEPS, DT)
     seconds = {guard: [] for guard in sims}
     for _ in range(repeats):  # interleaved, so both variants see the same scene state and machine noise
         for guard, sim in sims.items():
-            seconds[guard].append(time_steps(sim, steps))
+            seconds[guard].append(time_steps(sim, steps, DT))
     phases = phase_breakdown(sims[True], max(1, steps // 2))
     floor = bandwidth / (STATE_BYTES * n)
     rows = []
@@ -122,13 +85,6 @@ def bench_size(n: int, device: str, steps: int, repeats: int, bandwidth: float) 
     return rows
 
 
-def cpu_model() -> str:
-    cpuinfo = Path("/proc/cpuinfo")
-    names = [line.split(":", 1)[1].strip() for line in (cpuinfo.read_text().splitlines() if cpuinfo.exists() else [])
-             if line.startswith("model name")]
-    return names[0] if names else platform.processor() or platform.machine()
-
-
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--device", choices=("cpu", "cuda"), default=None, help="default: cuda if present, else cpu")
@@ -139,11 +95,9 @@ def main(argv=None) -> None:
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results/particles.json"))
     args = parser.parse_args(argv)
 
-    wp.init()
-    device = wp.get_device(resolve_device(args.device))
-    host_bw = copy_bandwidth(args.copy_mb)
-    floor_bw = copy_bandwidth(args.copy_mb, device) if device.is_cuda else host_bw
-    name = device.name if device.is_cuda else cpu_model()
+    device = pick_device(parser, args.device)
+    host_bw, floor_bw = floor_bandwidth(device, args.copy_mb)
+    name = device_name(device)
     print(f"warp {wp.__version__}, device {device.alias} ({name}), dt = {DT:.6g} s")
     print(f"copy bandwidth (read + write): numpy {host_bw / 1e9:.2f} GB/s"
           + (f", device wp.copy {floor_bw / 1e9:.1f} GB/s" if device.is_cuda else ""))

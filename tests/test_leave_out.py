@@ -18,19 +18,22 @@ if kind != "bodies_only":
     ids = scene.add_particles([[0.0, 1.0, 0.0], [0.5, 1.0, 0.0]])
 if kind == "springs":
     scene.add_springs([[0, 1]], 100.0)
+if kind == "emitter":
+    scene.add_emitter(rate=50.0, lifetime=0.5)
 if kind in ("bodies_only", "mixed"):
     scene.add_rigid_body(ws.Box(0.1), position=(0.0, 2.0, 0.0), angular_velocity=(1.0, 2.0, 3.0))
 sim = ws.Simulator(scene, integrator="symplectic_euler", device="cpu", guard=(kind != "no_guard"))
 for _ in range(3):
     sim.step(0.01)
-topics = ("springs", "planes", "particles", "integrate", "guards", "rigid")
+topics = ("springs", "planes", "particles", "integrate", "guards", "rigid", "emitters")
 loaded = [t for t in topics if wp.get_module("warp_sim.kernels." + t).execs]
 names = ("spring_pairs", "plane_normal", "particle_inv_mass", "body_inv_mass", "body_inv_inertia")
 arrays = {name: getattr(sim.model, name) is not None for name in names}
 fields = [field.name for field in sim.dynamics.layout.fields]
 forces = sim.dynamics.forces
 print(json.dumps({"loaded": loaded, "arrays": arrays, "force": forces.particle_f.shape[0],
-                  "body_force": forces.body_f.shape[0] + forces.body_t.shape[0], "fields": fields}))
+                  "body_force": forces.body_f.shape[0] + forces.body_t.shape[0], "fields": fields,
+                  "pools": sim.emitters is not None}))
 """
 
 
@@ -52,6 +55,12 @@ def test_particles_only_scene_never_loads_springs_or_bodies():
                                 "body_inv_mass": False, "body_inv_inertia": False}
     assert result["force"] == 0          # no force term: no force accumulator either
     assert result["fields"] == ["particle_x", "particle_v"]
+
+
+def test_emitter_kernels_and_pools_only_with_emitters():
+    plain, emitting = probe("particles"), probe("emitter")
+    assert "emitters" not in kernels(plain) and not plain["pools"]
+    assert "emitters" in kernels(emitting) and emitting["pools"]
 
 
 def test_rigid_only_scene_loads_no_particle_spring_or_plane_kernels():

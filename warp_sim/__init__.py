@@ -2,6 +2,8 @@
 
 The public API: build a Scene, run it with a Simulator, read the State or the USD stage.
 """
+from .emitters import Ramp
+from .fields import Attractor, Turbulence, Vortex
 from .guards import SimulationDiverged
 from .integrators import INTEGRATORS
 from .model import Model, State
@@ -11,4 +13,5 @@ from .simulator import Simulator
 
 __version__ = "0.1.0"
 __all__ = ["Scene", "Simulator", "Model", "State", "SimulationDiverged", "INTEGRATORS", "Shape", "Sphere", "Box",
-           "Capsule", "Cylinder", "MeshShape", "PointMasses", "MassProperties", "__version__"]
+           "Capsule", "Cylinder", "MeshShape", "PointMasses", "MassProperties", "Ramp", "Attractor", "Vortex", "Turbulence",
+           "__version__"]

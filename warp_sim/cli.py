@@ -30,8 +30,9 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     demo = commands.add_parser(
         "demo", help="simulate the demo scene and write it to a USD stage",
-        description="Simulate particles bouncing on the ground and a spring chain hanging from a "
-                    "pinned particle, and write the animation to a USD stage.")
+        description="Simulate particles bouncing on the ground, a spring chain hanging from a pinned "
+                    "particle, rigid bodies thrown tumbling into the air and a particle fountain, and write "
+                    "the animation to a USD stage.")
     demo.add_argument("--device", default=None,
                       help="Warp device, e.g. cpu or cuda:0 (default: cuda when present, else cpu)")
     demo.add_argument("--integrator", default="rk4", choices=sorted(INTEGRATORS),

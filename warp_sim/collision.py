@@ -9,6 +9,8 @@ Two responses, chosen per simulator:
 """
 from __future__ import annotations
 
+import warp as wp
+
 from .dynamics import Forces, ForceTerm
 from .kernels import planes as plane_kernels
 from .model import Model, State
@@ -26,13 +28,15 @@ class PlaneImpacts:
 
     def __init__(self, model: Model):
         self.model = model
+        #: per-particle int32 flags set to 1 on contact, for those who ask (kill-on-contact emitters)
+        self.touched = model.empty(wp.int32)
 
     def apply(self, start: State, end: State, h: float) -> None:
         """Correct ``end`` in place for every plane crossed between ``start`` and ``end`` (h seconds)."""
         m = self.model
         m.launch(plane_kernels.resolve_plane_impacts, m.particle_count,
                  [start.particle_x, start.particle_v, end.particle_x, end.particle_v, m.particle_inv_mass,
-                  m.particle_radius, *_material_inputs(m), m.scalar(h)])
+                  m.particle_radius, *_material_inputs(m), m.scalar(h), self.touched])
 
 
 class PlanePenalty(ForceTerm):

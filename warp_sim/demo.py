@@ -1,11 +1,12 @@
 """The demo scene: particles bouncing on the ground, a spring chain hanging from a pinned particle,
-and rigid bodies thrown tumbling into the air."""
+rigid bodies thrown tumbling into the air, and a particle fountain."""
 from __future__ import annotations
 
 import numpy as np
 import trimesh
 
 from . import shapes
+from .emitters import Ramp
 from .scene import Scene
 
 # Rigid bodies do not collide yet, so they are thrown high enough (19 m/s, a 3.9 s flight) to be
@@ -18,10 +19,11 @@ THROWN_BODIES = (
 )
 
 
-def demo_scene(particles: int = 200, chain_links: int = 20, seed: int = 0) -> Scene:
+def demo_scene(particles: int = 200, chain_links: int = 20, seed: int = 0, fountain_rate: float = 400.0) -> Scene:
     """A ground plane, `particles` balls thrown up from a box, a chain of `chain_links` springs
     hanging from a pinned particle at (2.5, 3, 0), kicked sideways, and five rigid bodies (a slab,
-    a ball, a capsule, a drum and a torus mesh) thrown spinning into the air."""
+    a ball, a capsule, a drum and a torus mesh) thrown spinning into the air, and a fountain
+    emitting `fountain_rate` droplets per second that fade as they age."""
     rng = np.random.default_rng(seed)
     scene = Scene(gravity=(0.0, -9.81, 0.0), drag=0.001)
     scene.add_ground(restitution=0.7, friction=0.3)
@@ -41,4 +43,9 @@ def demo_scene(particles: int = 200, chain_links: int = 20, seed: int = 0) -> Sc
     scene.add_rigid_body(shapes.MeshShape(trimesh.creation.torus(0.2, 0.06)), density=500.0,
                          position=(-4.0, 0.5, 0.5), linear_velocity=(0.8, 18.9, -0.1),
                          angular_velocity=(5.0, 2.0, 0.5), name="torus", color=(0.8, 0.7, 0.2))
+    scene.add_emitter(rate=fountain_rate, lifetime=(1.2, 1.8), position=(0.0, 0.05, -3.0), direction=(0.0, 1.0, 0.0),
+                      spread=8.0, speed=(5.0, 6.0), shape="disc", radius=0.05, size=0.015, mass=0.001,
+                      color=Ramp([0.0, 1.0], [(0.6, 0.8, 1.0), (1.0, 1.0, 1.0)]),
+                      opacity=Ramp([0.0, 0.7, 1.0], [1.0, 0.8, 0.0]), restitution=0.3, friction=0.2, seed=seed,
+                      name="fountain")
     return scene

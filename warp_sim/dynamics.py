@@ -202,6 +202,10 @@ class Dynamics:
         self.force_terms: list[ForceTerm] = []
         if model.spring_count:
             self.force_terms.append(Springs(model))
+        if model.scene.fields and model.particle_count:
+            from .fields import FieldForces
+
+            self.force_terms.append(FieldForces(model))
         self.force_terms.extend(extra_force_terms)
         self.forces = Forces(model, set().union(*(term.targets for term in self.force_terms)))
         self.components: list[Component] = []

@@ -14,11 +14,13 @@ PRECISIONS = ("float32", "float64")
 
 @dataclass(frozen=True)
 class ParticleGroup:
-    """The particles one add_particles call made: global indices start .. start + count - 1."""
+    """The particles one add_particles call made: global indices start .. start + count - 1.
+    pooled: the slots of an emitter's pool, of which only the live ones exist at any time."""
     name: str
     start: int
     count: int
     color: tuple
+    pooled: bool = False
 
 
 @dataclass(frozen=True)
@@ -73,6 +75,9 @@ class Scene:
         self.wind = checks.vec3("wind", wind)
         self.particle_groups: list[ParticleGroup] = []
         self.bodies: list[RigidBody] = []
+        self._body_names: set[str] = set()      # unique-name checks stay O(1) for 10^5 bodies
+        self.fields: list = []
+        self.emitters: list = []
         self.planes: list[Plane] = []
         self._particles: dict[str, list[np.ndarray]] = {key: [] for key in (
             "position", "velocity", "mass", "radius", "pinned", "restitution", "friction")}
@@ -118,14 +123,56 @@ class Scene:
             raise checks.fail("restitution", restitution, "must lie in [0, 1]")
         mu = np.full(count, -1.0) if friction is None else checks.per_element("friction", friction, count, low=0.0)
         rgb = tuple(checks.finite_array("color", color, (3,)))
-        start = self.particle_count
-        label = name or f"group{len(self.particle_groups)}"
+        return self._append_particles(name or f"group{len(self.particle_groups)}", rgb, False,
+                                      (x, v, m, r, pin, e, mu))
+
+    def _append_particles(self, label: str, rgb: tuple, pooled: bool, chunks: tuple) -> np.ndarray:
         if any(group.name == label for group in self.particle_groups):
             raise checks.fail("name", label, "particle group names must be unique")
-        for key, chunk in zip(self._particles, (x, v, m, r, pin, e, mu)):
+        start, count = self.particle_count, len(chunks[0])
+        for key, chunk in zip(self._particles, chunks):
             self._particles[key].append(chunk)
-        self.particle_groups.append(ParticleGroup(label, start, count, rgb))
+        self.particle_groups.append(ParticleGroup(label, start, count, rgb, pooled))
         return np.arange(start, start + count)
+
+    # emitters ------------------------------------------------------------------
+    def add_emitter(self, rate: float = 100.0, lifetime=2.0, position=(0.0, 0.0, 0.0), direction=(0.0, 1.0, 0.0),
+                    spread: float = 15.0, speed=1.0, shape: str = "point", radius: float | None = None,
+                    half_extents=None, mesh=None, size=0.01, mass=0.001, color=(1.0, 1.0, 1.0), opacity=1.0,
+                    bursts=(), start: float = 0.0, stop: float | None = None, capacity: int | None = None,
+                    seed: int = 0, restitution: float | None = None, friction: float | None = None,
+                    kill_planes=(), kill_on_contact: bool = False, name: str | None = None):
+        """Add a particle emitter with its own pool of particles; returns its Emitter description.
+
+        rate [particles/s] (births follow it exactly: particle k at start + (k + 1/2) / rate);
+        bursts: ((time [s], count), ...) extra births; start, stop: the stream's interval [s].
+        lifetime [s], speed [m/s], mass [kg]: a constant or a uniform (min, max) range.
+        shape: "point", "disc" (radius, normal = direction), "sphere" (surface) or "ball"
+        (volume) of radius [m], "box" of half_extents [m], or "mesh" (the surface of a
+        trimesh mesh or file, by area, offset by position). direction: a unit axis, or
+        "normal" (outward) for sphere, ball and mesh; spread: the cone's half-angle in
+        [0, 180] degrees. size (particle radius [m]), color (RGB in 0..1) and opacity (0..1):
+        a constant, a (min, max) range drawn at birth, or a ws.Ramp over normalised age.
+        capacity: pool slots (default ceil(rate x max lifetime) + 1 + burst counts); when
+        it is full, births are skipped and counted (Simulator.emitter_stats()), never
+        overwrite a live particle. seed: integer in [0, 2^31). restitution and friction:
+        averaged with each plane's, as for particles. kill_planes: ((normal, offset), ...),
+        particles with normal . x < offset die; kill_on_contact: die on touching a plane.
+        """
+        from .emitters import make_emitter
+
+        label = name or f"emitter{len(self.emitters)}"
+        emitter = make_emitter(len(self.emitters), self.particle_count, label, rate, lifetime, position, direction,
+                               spread, speed, shape, radius, half_extents, mesh, size, mass, color, opacity,
+                               bursts, start, stop, capacity, seed, kill_planes, kill_on_contact)
+        n = emitter.capacity
+        e = -1.0 if restitution is None else checks.scalar("restitution", restitution, low=0.0, high=1.0)
+        mu = -1.0 if friction is None else checks.scalar("friction", friction, low=0.0)
+        rgb = tuple(float(c) for c in emitter.color[0])
+        self._append_particles(label, rgb, True, (np.zeros((n, 3)), np.zeros((n, 3)), np.ones(n), np.zeros(n),
+                                                  np.ones(n, dtype=bool), np.full(n, e), np.full(n, mu)))
+        self.emitters.append(emitter)
+        return emitter
 
     # springs -------------------------------------------------------------------
     @property
@@ -202,7 +249,7 @@ class Scene:
         R = quat_to_matrix(q)
         inertia_world = R @ properties.inertia @ R.T
         label = name or f"body{len(self.bodies)}"
-        if any(body.name == label for body in self.bodies):
+        if label in self._body_names:
             raise checks.fail("name", label, "body names must be unique")
         body = RigidBody(
             name=label, shape=shape, mass=properties,
@@ -218,6 +265,7 @@ class Scene:
             color=tuple(checks.finite_array("color", color, (3,))),
         )
         self.bodies.append(body)
+        self._body_names.add(label)
         return len(self.bodies) - 1
 
     def body_array(self, key: str) -> np.ndarray:
@@ -231,6 +279,17 @@ class Scene:
         values = [getattr(body, key) for body in self.bodies]
         width = {"position": 3, "orientation": 4, "momentum": 3, "angular_momentum": 3}.get(key)
         return np.array(values, dtype=np.float64).reshape((-1, width) if width else (-1,))
+
+    # force fields --------------------------------------------------------------
+    def add_field(self, field) -> int:
+        """Add a force field acting on every particle (ws.Attractor, ws.Vortex, ws.Turbulence);
+        returns its index. Fields accelerate particles independently of their mass."""
+        from .fields import Field
+
+        if not isinstance(field, Field):
+            raise checks.fail("field", field, "expected a warp_sim force field: Attractor, Vortex or Turbulence")
+        self.fields.append(field)
+        return len(self.fields) - 1
 
     # planes --------------------------------------------------------------------
     def add_plane(self, normal, offset: float = 0.0, restitution: float = 0.5, friction: float = 0.4,

@@ -46,8 +46,8 @@ def stage_layout(scene: Scene):
     from .stages import PlaneSpec, PointsGroup, StageLayout
 
     radius = scene.particle_array("radius")
-    groups = tuple(PointsGroup(g.name, g.start, g.count, 2.0 * radius[g.start:g.start + g.count], g.color)
-                   for g in scene.particle_groups)
+    groups = tuple(PointsGroup(g.name, g.start, g.count, 2.0 * radius[g.start:g.start + g.count], g.color,
+                               pooled=g.pooled) for g in scene.particle_groups)
     planes = tuple(PlaneSpec(p.name, tuple(p.normal), p.offset) for p in scene.planes)
     springs = scene.spring_array("pairs") if scene.spring_count else None
     bodies = tuple(body_spec(index, body) for index, body in enumerate(scene.bodies))
@@ -86,6 +86,14 @@ class Simulator:
         self.impacts = PlaneImpacts(self.model) if contact == "impulse" and particle_planes else None
         self.state = self.dynamics.initial_state()
         self._next = self.dynamics.new_state()
+        self.emitters = None
+        if scene.emitters:
+            from .emitters import EmitterPools
+
+            self.emitters = EmitterPools(self.model, scene)
+            self.emitters.initial_births(self.state, 0.0)
+            if self.emitters.touched is not None and self.impacts is not None:
+                self.impacts.touched = self.emitters.touched
         self.guard = Guard(self.model, self.dynamics.components, speed) if guard else None
         self.time = 0.0
         self.step_count = 0
@@ -157,12 +165,20 @@ class Simulator:
         if self.guard is not None:
             self.guard.raise_if_diverged(self.state)
 
+    def emitter_stats(self) -> list[dict]:
+        """Per emitter: name, capacity, live, born, and skipped (births that found its pool full)."""
+        return self.emitters.stats() if self.emitters is not None else []
+
     def _advance(self, h: float) -> None:
+        if self.emitters is not None:
+            self.emitters.check_step(h)
         self.integrator.step(self.state, self._next, self.time, h)
         if self.impacts is not None:
             self.impacts.apply(self.state, self._next, h)
         self.dynamics.post_step(self._next)
         self.state, self._next = self._next, self.state
+        if self.emitters is not None:
+            self.emitters.after_step(self.state, self.time, h)
         self.step_count += 1
         self.time += h
         if self.guard is not None:
@@ -174,10 +190,16 @@ class Simulator:
                                           ("particle_v", self.model.particle_count),
                                           ("body_x", self.model.body_count), ("body_q", self.model.body_count))
                  if count]
-        return {name: getattr(self.state, name).numpy() for name in names}
+        arrays = {name: getattr(self.state, name).numpy() for name in names}
+        if self.emitters is not None:
+            pools = self.emitters
+            arrays.update(particle_alive=pools.alive.numpy(), particle_id=pools.ids.numpy(),
+                          particle_radius=self.model.particle_radius.numpy(), particle_color=pools.color.numpy(),
+                          particle_opacity=pools.opacity.numpy())
+        return arrays
 
     def run(self, seconds: float, fps: float = 60.0, substeps: int = 8, usd=None, progress: bool = True,
-            chunk_frames: int = 240):
+            chunk_frames: int | None = None):
         """Simulate round(seconds * fps) frames of `substeps` steps each, writing each frame to USD.
 
         Frame k (time code k) holds the state at run start + k / fps; frame 0 is the
@@ -199,6 +221,9 @@ class Simulator:
 
         h = 1.0 / (fps * substeps)
         start_time = self.time
+        if chunk_frames is None:   # save often enough that unsaved samples stay below about 256 MB
+            frame_bytes = 40 * self.model.particle_count + 28 * self.model.body_count + 1
+            chunk_frames = int(min(240, max(1, 256 * 2**20 // frame_bytes)))
         writer = StageWriter(usd, fps, stage_layout(self.model.scene), chunk_frames) if usd is not None else None
         try:
             with tqdm(total=frames, unit="frame", disable=None if progress else True, desc="simulating") as bar:
@@ -219,5 +244,7 @@ class Simulator:
             if writer is not None:
                 writer.abort()
             raise
+        if self.emitters is not None:
+            self.emitters.warn_if_skipped()
         return writer.close() if writer is not None else None
 

@@ -9,6 +9,8 @@ Topics:
 - ``integrate``: element-wise combinations of flat state buffers (the ODE solvers' arithmetic)
 - ``particles``: the particle derivative (gravity, drag, wind, accumulated forces)
 - ``springs``: the damped Hooke spring forces
+- ``fields``: force fields on particles (point attractors, vortices, curl-noise turbulence)
+- ``emitters``: particle births into pools, ageing, deaths and attributes over life
 - ``rigid``: rigid-body rates (x, q, P, L), orientation renormalisation, impulses, derived v, omega and R
 - ``planes``: particle-plane contacts, time-of-impact impulse and penalty responses
 - ``guards``: detection of non-finite or runaway states

@@ -73,6 +73,12 @@ def check_bodies(
     qi = q[i]
     v = P[i] * inv_mass[i]
     speed_squared = wp.dot(v, v)
+    # one finiteness test on a sum first (the common case); the detailed tests only for the bad
+    xi = x[i]
+    Li = L[i]
+    total = xi[0] + xi[1] + xi[2] + qi[0] + qi[1] + qi[2] + qi[3] + Li[0] + Li[1] + Li[2] + speed_squared
+    if wp.isfinite(total) and speed_squared <= max_speed * max_speed:
+        return
     position_ok = wp.isfinite(x[i]) and wp.isfinite(qi)
     velocity_ok = wp.isfinite(P[i]) and wp.isfinite(L[i])
     if position_ok and velocity_ok and speed_squared <= max_speed * max_speed:

@@ -94,6 +94,7 @@ def resolve_plane_impacts(
     plane_restitution: wp.array(dtype=Any),
     plane_friction: wp.array(dtype=Any),
     h: Any,
+    touched_out: wp.array(dtype=wp.int32),
 ):
     """Detect plane crossings over a step of h seconds and respond at the time of impact.
 
@@ -107,6 +108,8 @@ def resolve_plane_impacts(
     the normal acceleration and friction acts with the impulse that supports it.
     No energy is added, and no particle ends the step inside a plane. x and v
     (the integrator's end of step) are updated in place; pinned particles are skipped.
+    touched_out: set to 1 for every particle that touched a plane in the step, or
+    an empty array when nobody asks.
     """
     i = wp.tid()
     if inv_mass[i] == type(h)(0.0):
@@ -177,6 +180,8 @@ def resolve_plane_impacts(
     if touched != 0:
         x[i] = xe
         v[i] = ve
+        if touched_out.shape[0] > 0:
+            touched_out[i] = 1
 
 
 @wp.func

@@ -1,0 +1,77 @@
+"""Shared by the benchmark scripts: device choice, the copy-bandwidth floor, step timing, the host's name.
+
+Imported as ``common`` by scripts run as ``python benchmarks/<name>.py`` (their folder is on sys.path).
+"""
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+import warp as wp
+
+from warp_sim import Simulator
+from warp_sim.simulator import resolve_device
+
+wp.config.log_level = wp.LOG_WARNING  # no per-module load messages (they are printed at launch, not import)
+
+
+def pick_device(parser: argparse.ArgumentParser, requested: str | None):
+    """The Warp device to run on (--device; default cuda when present, else cpu); a usage error, not a
+    traceback, when cuda is asked for on a machine without a CUDA device."""
+    wp.init()
+    if requested == "cuda" and wp.get_cuda_device_count() == 0:
+        parser.error("--device cuda: no CUDA device on this machine (use --device cpu, or leave --device out)")
+    return wp.get_device(resolve_device(requested))
+
+
+def best_rate(copy, nbytes: int, repeats: int = 7) -> float:
+    """Bytes moved (read + written) per second by copy(), best of repeats after one warm-up."""
+    copy()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        copy()
+        times.append(time.perf_counter() - start)
+    return 2 * nbytes / min(times)
+
+
+def copy_bandwidth(megabytes: int, device=None) -> float:
+    """A large float32 copy: np.copyto on the host (device None), else wp.copy between device arrays."""
+    count = megabytes * 2**20 // 4
+    if device is None:
+        src = np.ones(count, dtype=np.float32)
+        dst = np.empty_like(src)
+        return best_rate(lambda: np.copyto(dst, src), 4 * count)
+    src = wp.ones(count, dtype=wp.float32, device=device)
+    dst = wp.empty_like(src)
+    return best_rate(lambda: (wp.copy(dst, src), wp.synchronize_device(device)), 4 * count)
+
+
+def floor_bandwidth(device, megabytes: int) -> tuple[float, float]:
+    """(numpy host copy bandwidth, the floor's bandwidth): the device's own wp.copy on CUDA, else the host figure.
+    Both in bytes read + written per second."""
+    host = copy_bandwidth(megabytes)
+    return host, (copy_bandwidth(megabytes, device) if device.is_cuda else host)
+
+
+def time_steps(sim: Simulator, steps: int, dt: float) -> float:
+    """Seconds for sim.step(dt, steps) (one guard read at the end), the device synchronised around it."""
+    wp.synchronize_device(sim.device)
+    start = time.perf_counter()
+    sim.step(dt, steps=steps)
+    wp.synchronize_device(sim.device)
+    return time.perf_counter() - start
+
+
+def cpu_model() -> str:
+    cpuinfo = Path("/proc/cpuinfo")
+    names = [line.split(":", 1)[1].strip() for line in (cpuinfo.read_text().splitlines() if cpuinfo.exists() else [])
+             if line.startswith("model name")]
+    return names[0] if names else platform.processor() or platform.machine()
+
+
+def device_name(device) -> str:
+    return device.name if device.is_cuda else cpu_model()

@@ -1,0 +1,119 @@
+"""Force fields acting on every particle: point attractors, vortices, curl-noise turbulence.
+
+A field is an acceleration [m/s^2] independent of the particle's mass; each kernel
+adds force = acceleration * m = acceleration / inv_mass into the force accumulator,
+for every field of its kind (looped inside the kernel: one launch per kind), and
+skips pinned particles (inv_mass 0). Thread i owns particle i, so the adds are
+plain read-modify-writes.
+"""
+from typing import Any
+
+import warp as wp
+
+wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
+#: Warp's curlnoise defaults: octave k has frequency LACUNARITY^k and weight GAIN^k
+LACUNARITY = wp.constant(wp.float32(2.0))
+GAIN = wp.constant(wp.float32(0.5))
+
+
+@wp.kernel
+def attractor_forces(
+    x: wp.array(dtype=Any),
+    inv_mass: wp.array(dtype=Any),
+    center: wp.array(dtype=Any),
+    strength: wp.array(dtype=Any),
+    min_distance: wp.array(dtype=Any),
+    force: wp.array(dtype=Any),
+):
+    """Accumulate m a with a = sum_k -GM_k (x - c_k) / max(|x - c_k|, d_k)^3 (inverse square).
+
+    x: particle positions [m]; inv_mass: 1/m [1/kg], 0 for pinned particles (no
+    force); center: attractor positions c_k [m]; strength: GM_k [m^3/s^2] (> 0
+    attracts, < 0 repels); min_distance: d_k [m] > 0, inside which the field is that
+    of a uniform ball of radius d_k (linear in x - c_k, zero at the centre, no
+    singularity); force: per-particle accumulator [N].
+    """
+    i = wp.tid()
+    w = inv_mass[i]
+    zero = type(w)(0.0)
+    if w > zero:
+        p = x[i]
+        acc = type(p)()
+        for k in range(center.shape[0]):
+            d = p - center[k]
+            r = wp.max(wp.length(d), min_distance[k])
+            acc = acc - (strength[k] / (r * r * r)) * d
+        force[i] = force[i] + acc / w
+
+
+@wp.kernel
+def vortex_forces(
+    x: wp.array(dtype=Any),
+    inv_mass: wp.array(dtype=Any),
+    center: wp.array(dtype=Any),
+    axis: wp.array(dtype=Any),
+    strength: wp.array(dtype=Any),
+    core_radius: wp.array(dtype=Any),
+    force: wp.array(dtype=Any),
+):
+    """Accumulate m a with a = sum_k S_k (n_k x r) / (|r|^2 + rc_k^2), r the part of x - c_k normal to n_k.
+
+    x: particle positions [m]; inv_mass: 1/m [1/kg], 0 for pinned particles (no
+    force); center: a point c_k on each vortex line [m]; axis: its unit direction
+    n_k; strength: S_k [m^2/s^2] (> 0 swirls counter-clockwise about n_k, right-hand
+    rule); core_radius: rc_k [m] > 0, which smooths the line singularity (the
+    swirl peaks at |r| = rc_k at S_k / (2 rc_k)); force: per-particle accumulator [N].
+    """
+    i = wp.tid()
+    w = inv_mass[i]
+    zero = type(w)(0.0)
+    if w > zero:
+        p = x[i]
+        acc = type(p)()
+        for k in range(center.shape[0]):
+            n = axis[k]
+            d = p - center[k]
+            r = d - wp.dot(d, n) * n
+            rc = core_radius[k]
+            acc = acc + (strength[k] / (wp.dot(r, r) + rc * rc)) * wp.cross(n, r)
+        force[i] = force[i] + acc / w
+
+
+@wp.kernel
+def turbulence_forces(
+    x: wp.array(dtype=Any),
+    inv_mass: wp.array(dtype=Any),
+    t: Any,
+    strength: wp.array(dtype=Any),
+    inv_scale: wp.array(dtype=Any),
+    frequency: wp.array(dtype=Any),
+    seed: wp.array(dtype=wp.int32),
+    octaves: wp.array(dtype=wp.int32),
+    force: wp.array(dtype=Any),
+):
+    """Accumulate m a with a = sum_k A_k curlnoise(seed_k, (x / L_k, t f_k), octaves_k), divergence-free in x.
+
+    x: particle positions [m]; inv_mass: 1/m [1/kg], 0 for pinned particles (no
+    force); t: time [s]; strength: A_k [m/s^2]; inv_scale: 1 / L_k [1/m], L_k the
+    size of the noise features; frequency: f_k [1/s], how fast the field changes
+    (0: steady); seed: selects the noise field (wp.rand_init); octaves: number of
+    noise octaves (Warp's lacunarity 2 and gain 1/2); force: per-particle
+    accumulator [N]. Warp's noise is float32: the coordinates are formed in the
+    arrays' precision, rounded to float32, and the noise converted back.
+    """
+    i = wp.tid()
+    w = inv_mass[i]
+    zero = type(w)(0.0)
+    if w > zero:
+        p = x[i]
+        acc = type(p)()
+        for k in range(strength.shape[0]):
+            q = p * inv_scale[k]
+            tau = t * frequency[k]
+            coordinate = wp.vec4f(wp.float32(q[0]), wp.float32(q[1]), wp.float32(q[2]), wp.float32(tau))
+            state = wp.rand_init(seed[k])
+            noise = wp.curlnoise(state, coordinate, wp.uint32(octaves[k]), LACUNARITY, GAIN)
+            a = strength[k]
+            acc = acc + type(p)(a * type(a)(noise[0]), a * type(a)(noise[1]), a * type(a)(noise[2]))
+        force[i] = force[i] + acc / w
