@@ -4,10 +4,9 @@ import math
 
 import numpy as np
 import pytest
+from helpers import G
 
 import warp_sim as ws
-
-from helpers import G
 
 
 def emitter_sim(integrator="symplectic_euler", device="cpu", gravity=(0.0, -G, 0.0), ground=None, **emitter):

@@ -1,10 +1,10 @@
 """Divergence guards: the error names step, time, component and element; USD keeps good frames."""
 import numpy as np
 import pytest
+from helpers import oscillator
 from pxr import Usd, UsdGeom
 
 import warp_sim as ws
-from helpers import oscillator
 from warp_sim.stages import validate_stage
 
 

@@ -3,9 +3,9 @@ import math
 
 import numpy as np
 import pytest
+from helpers import G, oscillator, particle, run_steps
 
 import warp_sim as ws
-from helpers import G, oscillator, particle, run_steps
 
 EXPECTED_ORDER = {"euler": 1, "midpoint": 2, "rk4": 4, "symplectic_euler": 1, "verlet": 2}
 

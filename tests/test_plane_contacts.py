@@ -3,9 +3,9 @@ import math
 
 import numpy as np
 import pytest
+from helpers import G, particle
 
 import warp_sim as ws
-from helpers import G, particle
 
 
 def dropped_ball(integrator, device, restitution=0.8, friction=0.0, height=1.0, contact="impulse", **kwargs):

@@ -4,11 +4,10 @@ import math
 
 import numpy as np
 import pytest
+from helpers import G
 
 import warp_sim as ws
 from warp_sim.rotations import quat_to_matrix
-
-from helpers import G
 
 # A flat body of point masses in the xy-plane with I_body = diag(1, 2, 3) kg m^2
 # (I_zz = I_xx + I_yy for a lamina): 0.5 kg at (+-sqrt 2, 0, 0) and at (0, +-1, 0).

@@ -103,7 +103,8 @@ def test_springs_topology_once_points_per_frame(tmp_path):
     assert curves.GetPointsAttr().GetTimeSamples() == [0.0, 1.0, 2.0, 3.0]
     assert curves.GetExtentAttr().GetNumTimeSamples() == 4
     for k, (x, _) in enumerate(data):
-        np.testing.assert_allclose(np.asarray(curves.GetPointsAttr().Get(k)), x[SPRINGS.reshape(-1)], rtol=1e-6, atol=1e-6)
+        np.testing.assert_allclose(np.asarray(curves.GetPointsAttr().Get(k)), x[SPRINGS.reshape(-1)],
+                                   rtol=1e-6, atol=1e-6)
 
 
 def test_planes_static_quads(tmp_path):

@@ -13,5 +13,6 @@ from .simulator import Simulator
 
 __version__ = "0.1.0"
 __all__ = ["Scene", "Simulator", "Model", "State", "SimulationDiverged", "INTEGRATORS", "Shape", "Sphere", "Box",
-           "Capsule", "Cylinder", "MeshShape", "PointMasses", "MassProperties", "Ramp", "Attractor", "Vortex", "Turbulence",
+           "Capsule", "Cylinder", "MeshShape", "PointMasses", "MassProperties", "Ramp", "Attractor", "Vortex",
+           "Turbulence",
            "__version__"]

@@ -28,7 +28,8 @@ def finite_array(name: str, value, shape: tuple) -> np.ndarray:
         raise fail(name, value, f"expected shape {shown}, got {array.shape}")
     bad = np.argwhere(~np.isfinite(array))
     if len(bad):
-        raise fail(name, value, f"every entry must be finite; entry {tuple(int(j) for j in bad[0])} is {array[tuple(bad[0])]}")
+        where = tuple(int(j) for j in bad[0])
+        raise fail(name, value, f"every entry must be finite; entry {where} is {array[where]}")
     return array
 
 
@@ -56,9 +57,11 @@ def scalar(name: str, value, low: float | None = None, high: float | None = None
     if not math.isfinite(number):
         raise fail(name, value, "must be finite")
     if low is not None and (number < low or (low_open and number == low)):
-        raise fail(name, value, f"must be {'>' if low_open else '>='} {low}" + (f" and <= {high}" if high is not None else ""))
+        above = f"must be {'>' if low_open else '>='} {low}"
+        raise fail(name, value, above + (f" and <= {high}" if high is not None else ""))
     if high is not None and number > high:
-        raise fail(name, value, f"must be <= {high}" + (f" and {'>' if low_open else '>='} {low}" if low is not None else ""))
+        below = f"must be <= {high}"
+        raise fail(name, value, below + (f" and {'>' if low_open else '>='} {low}" if low is not None else ""))
     return number
 
 
@@ -69,7 +72,8 @@ def per_element(name: str, value, count: int, low: float, low_open: bool = False
     array = finite_array(name, value, (count,))
     bad = np.flatnonzero(array <= low if low_open else array < low)
     if len(bad):
-        raise fail(name, value, f"every entry must be {'>' if low_open else '>='} {low}; entry {bad[0]} is {array[bad[0]]}")
+        bound = f"{'>' if low_open else '>='} {low}"
+        raise fail(name, value, f"every entry must be {bound}; entry {bad[0]} is {array[bad[0]]}")
     return array
 
 
@@ -79,7 +83,8 @@ def indices(name: str, value, count: int, shape: tuple) -> np.ndarray:
     if array.size == 0:
         array = array.reshape([0 if s == -1 else s for s in shape])
     if not (np.issubdtype(array.dtype, np.integer) or array.size == 0):
-        if not np.issubdtype(array.dtype, np.floating) or not np.all(np.isfinite(array)) or np.any(array != np.round(array)):
+        whole = np.issubdtype(array.dtype, np.floating) and np.all(np.isfinite(array))
+        if not whole or np.any(array != np.round(array)):
             raise fail(name, value, "expected integer indices")
     array = array.astype(np.int64)
     if array.ndim != len(shape) or any(s != -1 and s != n for s, n in zip(shape, array.shape)):

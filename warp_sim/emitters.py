@@ -286,8 +286,6 @@ class _Pool:
         self.birth = wp.zeros(n, dtype=wp.float64, device=device)     # [s]
         self.age = wp.zeros(n, dtype=wp.float64, device=device)       # [s]
         self.lifetime = wp.zeros(n, dtype=wp.float64, device=device)  # [s]
-        self.base_color = wp.zeros(n, dtype=wp.vec4f, device=device)
-        self.base_size = wp.zeros(n, dtype=wp.float32, device=device)
         self.free_slots = wp.array(np.arange(n - 1, -1, -1, dtype=np.int32), dtype=wp.int32, device=device)
         self.free_count = wp.array([n], dtype=wp.int32, device=device)
         self.born = wp.zeros(1, dtype=wp.int64, device=device)
@@ -311,7 +309,8 @@ class _Pool:
         p.lifetime = wp.vec2d(*e.lifetime)
         p.color_low, p.color_high = wp.vec3f(*e.color[0]), wp.vec3f(*e.color[1])
         p.opacity = wp.vec2f(float(e.opacity[0]), float(e.opacity[1]))
-        p.color_ramp, p.opacity_ramp, p.size_ramp = (int(r is not None) for r in (e.color[2], e.opacity[2], e.size_ramp))
+        ramps = (e.color[2], e.opacity[2], e.size_ramp)
+        p.color_ramp, p.opacity_ramp, p.size_ramp = (int(ramp is not None) for ramp in ramps)
         p.gravity = wp.vec3f(*scene.gravity)
         p.seed = (e.seed * 2654435761 + e.index * 40503) & 0x7FFFFFFF   # (seed, emitter) mixed into one int32
         return p
@@ -351,7 +350,7 @@ class _Pool:
                  [self.params, self.e.start_slot, self.kill_normal, self.kill_offset, wp.float64(now),
                   self.contact_normal, self.contact_offset, self.touched, *self.ramps, state.particle_x,
                   state.particle_v, m.particle_inv_mass, m.particle_radius, self.alive, self.birth, self.age,
-                  self.lifetime, self.base_color, self.base_size, self.color, self.opacity, self.free_slots,
+                  self.lifetime, self.color, self.opacity, self.free_slots,
                   self.free_count])
 
     def births(self, state, t0: float, t1: float, include_start: bool) -> None:
@@ -373,8 +372,9 @@ class _Pool:
         m.launch(self.k.emit, count,
                  [self.params, self.e.start_slot, self.emitted, wp.int64(self.e.index * ID_STRIDE),
                   wp.float64(first_age), wp.float64(age_step), self.free_slots, self.free_count, *self.mesh,
-                  state.particle_x, state.particle_v, m.particle_inv_mass, m.particle_radius, self.alive, self.ids,
-                  wp.float64(now), self.birth, self.age, self.lifetime, self.base_color, self.base_size, self.color,
+                  *self.ramps, state.particle_x, state.particle_v, m.particle_inv_mass, m.particle_radius, self.alive,
+                  self.ids,
+                  wp.float64(now), self.birth, self.age, self.lifetime, self.color,
                   self.opacity])
         m.launch(self.k.commit_births, 1, [count, self.free_count, self.born, self.skipped])
         self.emitted += count

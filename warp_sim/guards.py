@@ -10,7 +10,6 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-
 NO_RECORD = np.iinfo(np.int32).max
 
 

@@ -86,8 +86,10 @@ class Model:
     bodies (body_inv_mass [1/kg], body_inv_inertia: I_body^-1 (mat33, body frame)
     [1/(kg m^2)], body_drag [N s/m], body_angular_drag [N m s/rad], body_restitution,
     body_friction; and the user's held inputs body_user_force [N] and
-    body_user_torque [N m], world frame, zero until set), particles (particle_inv_mass [1/kg], particle_radius [m], particle_restitution,
-    particle_friction: empty where no particle has its own value), springs
+    body_user_torque [N m], world frame, zero until set), particles
+    (particle_inv_mass [1/kg], particle_radius [m], particle_restitution,
+    particle_friction: empty where no particle has its own value; an emitter's
+    pool slots change their inverse mass and radius at births and deaths), springs
     (spring_pairs, spring_stiffness [N/m], spring_damping [N s/m],
     spring_rest_length [m]), planes (plane_normal, plane_offset [m],
     plane_restitution, plane_friction). gravity [m/s^2], drag [N s/m] and wind

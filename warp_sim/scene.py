@@ -118,7 +118,8 @@ class Scene:
         if pinned is not None:
             pin[checks.indices("pinned", pinned, count, (-1,))] = True
             v[pin] = 0.0
-        e = np.full(count, -1.0) if restitution is None else checks.per_element("restitution", restitution, count, low=0.0)
+        e = np.full(count, -1.0) if restitution is None else checks.per_element("restitution", restitution, count,
+                                                                                low=0.0)
         if restitution is not None and e.max() > 1.0:
             raise checks.fail("restitution", restitution, "must lie in [0, 1]")
         mu = np.full(count, -1.0) if friction is None else checks.per_element("friction", friction, count, low=0.0)
@@ -211,8 +212,9 @@ class Scene:
             zero = np.flatnonzero(length == 0.0)
             if len(zero):
                 k = zero[0]
-                raise checks.fail("rest_length", None, f"spring {k} joins coincident particles {tuple(p[k])}, "
-                                                       "so its rest length cannot default to its length; give rest_length")
+                raise checks.fail("rest_length", None,
+                                  f"spring {k} joins coincident particles {tuple(p[k])}, so its rest length "
+                                  "cannot default to its length; give rest_length")
         else:
             length = checks.per_element("rest_length", rest_length, count, low=0.0)
         start = self.spring_count

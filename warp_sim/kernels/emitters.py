@@ -62,6 +62,22 @@ def ramp_value(keys: wp.array(dtype=float), values: wp.array(dtype=wp.vec4f), s:
     return values[k - 1] + f * (values[k] - values[k - 1])
 
 
+@wp.func
+def ramped_attributes(e: Any, s: float, color_keys: wp.array(dtype=float), color_values: wp.array(dtype=wp.vec4f),
+                      opacity_keys: wp.array(dtype=float), opacity_values: wp.array(dtype=wp.vec4f),
+                      size_keys: wp.array(dtype=float), size_values: wp.array(dtype=wp.vec4f), rgb: wp.vec3f,
+                      alpha: float, size: float):
+    """(colour, opacity, size) at normalised age s: each from its ramp where the emitter has one, else as given."""
+    if e.color_ramp == 1:
+        c = ramp_value(color_keys, color_values, s)
+        rgb = wp.vec3f(c[0], c[1], c[2])
+    if e.opacity_ramp == 1:
+        alpha = ramp_value(opacity_keys, opacity_values, s)[0]
+    if e.size_ramp == 1:
+        size = ramp_value(size_keys, size_values, s)[0]
+    return rgb, alpha, size
+
+
 @wp.struct
 class EmitterParams:
     """The constants of one emitter (float32; converted to the state's precision in the kernels)."""
@@ -146,6 +162,12 @@ def emit(
     mesh_a: wp.array(dtype=wp.vec3f),
     mesh_b: wp.array(dtype=wp.vec3f),
     mesh_c: wp.array(dtype=wp.vec3f),
+    color_keys: wp.array(dtype=float),
+    color_values: wp.array(dtype=wp.vec4f),
+    opacity_keys: wp.array(dtype=float),
+    opacity_values: wp.array(dtype=wp.vec4f),
+    size_keys: wp.array(dtype=float),
+    size_values: wp.array(dtype=wp.vec4f),
     x: wp.array(dtype=Any),
     v: wp.array(dtype=Any),
     inv_mass: wp.array(dtype=Any),
@@ -156,8 +178,6 @@ def emit(
     birth: wp.array(dtype=wp.float64),
     age: wp.array(dtype=wp.float64),
     lifetime: wp.array(dtype=wp.float64),
-    base_color: wp.array(dtype=wp.vec4f),
-    base_size: wp.array(dtype=float),
     color: wp.array(dtype=wp.vec3f),
     opacity: wp.array(dtype=float),
 ):
@@ -198,15 +218,16 @@ def emit(
     x[i] = type(x[i])(type(zero)(p[0]), type(zero)(p[1]), type(zero)(p[2]))
     v[i] = type(v[i])(type(zero)(velocity[0]), type(zero)(velocity[1]), type(zero)(velocity[2]))
     inv_mass[i] = type(zero)(1.0 / mass)
-    radius[i] = type(zero)(size)
     alive[slot] = 1
     ids[slot] = id_base + wp.int64(sequence)
     birth[slot] = now - age_now
     age[slot] = age_now
     lifetime[slot] = life
     rgb = e.color_low + mix * (e.color_high - e.color_low)
-    base_color[slot] = wp.vec4f(rgb[0], rgb[1], rgb[2], alpha)
-    base_size[slot] = size
+    s = float(wp.min(age_now / life, wp.float64(1.0)))
+    rgb, alpha, size = ramped_attributes(e, s, color_keys, color_values, opacity_keys, opacity_values, size_keys,
+                                         size_values, rgb, alpha, size)
+    radius[i] = type(zero)(size)
     color[slot] = rgb
     opacity[slot] = alpha
 
@@ -246,8 +267,6 @@ def age_and_kill(
     birth: wp.array(dtype=wp.float64),
     age: wp.array(dtype=wp.float64),
     lifetime: wp.array(dtype=wp.float64),
-    base_color: wp.array(dtype=wp.vec4f),
-    base_size: wp.array(dtype=float),
     color: wp.array(dtype=wp.vec3f),
     opacity: wp.array(dtype=float),
     free_slots: wp.array(dtype=int),
@@ -287,10 +306,8 @@ def age_and_kill(
         free_slots[top] = slot
         return
     s = float(wp.min(a / lifetime[slot], wp.float64(1.0)))
-    if e.color_ramp == 1:
-        c = ramp_value(color_keys, color_values, s)
-        color[slot] = wp.vec3f(c[0], c[1], c[2])
-    if e.opacity_ramp == 1:
-        opacity[slot] = ramp_value(opacity_keys, opacity_values, s)[0]
-    if e.size_ramp == 1:
-        radius[i] = type(radius[i])(ramp_value(size_keys, size_values, s)[0])
+    rgb, alpha, size = ramped_attributes(e, s, color_keys, color_values, opacity_keys, opacity_values, size_keys,
+                                         size_values, color[slot], opacity[slot], float(radius[i]))
+    color[slot] = rgb
+    opacity[slot] = alpha
+    radius[i] = type(radius[i])(size)

@@ -676,7 +676,8 @@ class StageWriter:
     def close(self) -> pathlib.Path:
         """Save the stage and move it onto the final path; returns that path."""
         self._check_open()
-        _require(self._frames > 0, f"close(): no frames written to {str(self._path)!r}; an empty animation is not a stage")
+        _require(self._frames > 0,
+                 f"close(): no frames written to {str(self._path)!r}; an empty animation is not a stage")
         self._save()
         self._stage = None  # release the layer before moving its file
         with open(self._tmp, "rb+") as f:  # data on disk before the rename makes it visible
