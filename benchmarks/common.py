@@ -1,4 +1,5 @@
-"""Shared by the benchmark scripts: device choice, the copy-bandwidth floor, step timing, the host's name.
+"""Shared by the benchmark scripts: device choice, the copy-bandwidth floor, step timing, per-kernel timing,
+markdown tables, the host's name.
 
 Imported as ``common`` by scripts run as ``python benchmarks/<name>.py`` (their folder is on sys.path).
 """
@@ -13,6 +14,7 @@ import numpy as np
 import warp as wp
 
 from warp_sim import Simulator
+from warp_sim.launcher import Launcher
 from warp_sim.simulator import resolve_device
 
 wp.config.log_level = wp.LOG_WARNING  # no per-module load messages (they are printed at launch, not import)
@@ -75,3 +77,51 @@ def cpu_model() -> str:
 
 def device_name(device) -> str:
     return device.name if device.is_cuda else cpu_model()
+
+
+class KernelProfile:
+    """Per kernel: launches, seconds (synchronised around each launch) and bytes of the arrays passed.
+
+    Only the launches of Models made inside ``instrumented`` go through it (a Model binds its
+    launcher's method when made). While ``enabled`` is False they run unmeasured, at the cost of
+    one extra Python call per launch, so one simulator can be timed whole and then profiled.
+    """
+
+    def __init__(self):
+        self.stats: dict[str, list] = {}
+        self.enabled = True
+
+    def instrumented(self, make):
+        """make(), with every launch of the Models made inside it going through this profile."""
+        original, stats, profile = Launcher.launch, self.stats, self
+
+        def launch(launcher, kernel, dim, inputs):
+            if not profile.enabled:
+                return original(launcher, kernel, dim, inputs)
+            if dim == 0:
+                return
+            wp.synchronize_device(launcher.device)
+            start = time.perf_counter()
+            original(launcher, kernel, dim, inputs)
+            wp.synchronize_device(launcher.device)
+            entry = stats.setdefault(kernel.key, [0, 0.0, 0])
+            entry[0] += 1
+            entry[1] += time.perf_counter() - start
+            entry[2] += sum(a.size * wp.types.type_size_in_bytes(a.dtype) for a in inputs if isinstance(a, wp.array))
+
+        Launcher.launch = launch  # a Model binds its launcher's method when made, so only its launches are timed
+        try:
+            return make()
+        finally:
+            Launcher.launch = original
+
+    def per_step(self, steps: int) -> dict:
+        return {key: {"launches": launches / steps, "ms": 1e3 * seconds / steps, "bytes": nbytes / steps}
+                for key, (launches, seconds, nbytes) in self.stats.items()}
+
+
+def markdown(header, rows, left=("device", "integrator")) -> str:
+    """A markdown table; the columns named in ``left`` are left-aligned, the others right-aligned."""
+    align = ["---" if h in left else "---:" for h in header]
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(align) + "|"]
+    return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])

@@ -35,10 +35,9 @@ from pathlib import Path
 
 import numpy as np
 import warp as wp
-from common import device_name, floor_bandwidth, pick_device, time_steps
+from common import KernelProfile, device_name, floor_bandwidth, markdown, pick_device, time_steps
 
 import warp_sim as ws
-from warp_sim.launcher import Launcher
 
 DT = 1.0 / 480.0  # [s], 60 fps with 8 substeps
 STATE_SCALARS = 13  # x (3), q (4), P (3), L (3)
@@ -80,39 +79,6 @@ def build_scene(parameters, precision: str) -> ws.Scene:
     scene = ws.Scene(precision=precision, **SCENE)
     add_bodies(scene, parameters, 0)
     return scene
-
-
-class KernelProfile:
-    """Per kernel: launches, seconds (synchronised around each launch) and bytes of the arrays passed."""
-
-    def __init__(self):
-        self.stats: dict[str, list] = {}
-
-    def instrumented(self, make):
-        """make(), with every launch of the Models made inside it going through this profile."""
-        original, stats = Launcher.launch, self.stats
-
-        def launch(launcher, kernel, dim, inputs):
-            if dim == 0:
-                return
-            wp.synchronize_device(launcher.device)
-            start = time.perf_counter()
-            original(launcher, kernel, dim, inputs)
-            wp.synchronize_device(launcher.device)
-            entry = stats.setdefault(kernel.key, [0, 0.0, 0])
-            entry[0] += 1
-            entry[1] += time.perf_counter() - start
-            entry[2] += sum(a.size * wp.types.type_size_in_bytes(a.dtype) for a in inputs if isinstance(a, wp.array))
-
-        Launcher.launch = launch  # a Model binds its launcher's method when made, so only its launches are timed
-        try:
-            return make()
-        finally:
-            Launcher.launch = original
-
-    def per_step(self, steps: int) -> dict:
-        return {key: {"launches": launches / steps, "ms": 1e3 * seconds / steps, "bytes": nbytes / steps}
-                for key, (launches, seconds, nbytes) in self.stats.items()}
 
 
 def load_kernels(device, precision: str, integrators) -> float:
@@ -169,12 +135,6 @@ def bench_size(n: int, device, args, bandwidth: float) -> dict:
                      "simulator_build_s": simulator_s[name]})
     return {"bodies": n, "scene_build_s": scene_s, "scene_build_us_per_body": 1e6 * scene_s / n,
             "simulator_build_s": simulator_s, "rows": rows}
-
-
-def markdown(header, rows) -> str:
-    align = ["---" if h in ("device", "integrator") else "---:" for h in header]
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(align) + "|"]
-    return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])
 
 
 def tables(device_alias: str, results: list[dict]) -> str:
