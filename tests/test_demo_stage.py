@@ -57,10 +57,10 @@ def test_demo_balls_stay_above_ground_and_chain_anchor_stays_put(demo_stage):
 
 
 def test_demo_bodies_fly_the_projectile_and_tumble(demo_stage):
-    """Each thrown body is an Xform whose translate follows the projectile with linear drag c,
-    x0 + (v0 - g/k)(1 - exp(-k t))/k + g t / k with k = c / M (float32, rk4), and whose orient
-    changes; its shape is a child gprim with no time samples."""
-    from warp_sim.demo import THROWN_BODIES, demo_scene
+    """Each thrown body is an Xform whose translate follows the projectile with linear drag c in
+    a wind w, x0 + (v0 - u)(1 - exp(-k t))/k + u t with k = c / M and u = w + g / k (float32, rk4),
+    and whose orient changes; its shape is a child gprim with no time samples."""
+    from warp_sim.demo import THROWN_BODIES, WIND, demo_scene
 
     stage, _ = demo_stage
     bodies = {body.name: body for body in demo_scene().bodies}
@@ -71,7 +71,8 @@ def test_demo_bodies_fly_the_projectile_and_tumble(demo_stage):
         assert translate.GetTimeSamples() == list(range(30)) == orient.GetTimeSamples()
         t = 29 / 60.0
         k, g = bodies[name].drag / bodies[name].mass.mass, np.array([0.0, -9.81, 0.0])
-        expected = np.array(position) + (np.array(velocity) - g / k) * (1 - np.exp(-k * t)) / k + g * t / k
+        u = np.array(WIND) + g / k
+        expected = np.array(position) + (np.array(velocity) - u) * (1 - np.exp(-k * t)) / k + u * t
         np.testing.assert_allclose(np.array(translate.Get(29)), expected, atol=2e-5)
         assert orient.Get(0) != orient.Get(29)
         children = prim.GetChildren()

@@ -7,7 +7,7 @@ from helpers import G, oscillator, particle, run_steps
 
 import warp_sim as ws
 
-EXPECTED_ORDER = {"euler": 1, "midpoint": 2, "rk4": 4, "symplectic_euler": 1, "verlet": 2}
+EXPECTED_ORDER = {"euler": 1, "midpoint": 2, "rk4": 4, "symplectic_euler": 1, "verlet": 2, "implicit_euler": 1}
 
 
 def test_every_integrator_has_an_expected_order():

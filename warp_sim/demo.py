@@ -1,5 +1,5 @@
 """The demo scene: particles bouncing on the ground, a spring chain hanging from a pinned particle,
-rigid bodies thrown tumbling into the air, and a particle fountain."""
+rigid bodies thrown tumbling into the air, a particle fountain, and a flag in the wind."""
 from __future__ import annotations
 
 import numpy as np
@@ -8,6 +8,8 @@ import trimesh
 from . import shapes
 from .emitters import Ramp
 from .scene import Scene
+
+WIND = (3.0, 0.0, 1.0)   # [m/s]: blows the flag (and drags everything a little)
 
 # Rigid bodies do not collide yet, so they are thrown high enough (19 m/s, a 3.9 s flight) to be
 # in the air for the whole default 4 s demo. The slab spins about its intermediate axis and flips.
@@ -22,10 +24,11 @@ THROWN_BODIES = (
 def demo_scene(particles: int = 200, chain_links: int = 20, seed: int = 0, fountain_rate: float = 400.0) -> Scene:
     """A ground plane, `particles` balls thrown up from a box, a chain of `chain_links` springs
     hanging from a pinned particle at (2.5, 3, 0), kicked sideways, and five rigid bodies (a slab,
-    a ball, a capsule, a drum and a torus mesh) thrown spinning into the air, and a fountain
-    emitting `fountain_rate` droplets per second that fade as they age."""
+    a ball, a capsule, a drum and a torus mesh) thrown spinning into the air, a fountain
+    emitting `fountain_rate` droplets per second that fade as they age, and a flag pinned at
+    two corners blowing in the wind."""
     rng = np.random.default_rng(seed)
-    scene = Scene(gravity=(0.0, -9.81, 0.0), drag=0.001)
+    scene = Scene(gravity=(0.0, -9.81, 0.0), drag=0.001, wind=WIND)
     scene.add_ground(restitution=0.7, friction=0.3)
     start = rng.uniform((-1.5, 0.5, -1.5), (1.5, 2.5, 1.5), size=(particles, 3))
     throw = rng.uniform((-1.0, 0.0, -1.0), (1.0, 4.0, 1.0), size=(particles, 3))
@@ -48,4 +51,9 @@ def demo_scene(particles: int = 200, chain_links: int = 20, seed: int = 0, fount
                       color=Ramp([0.0, 1.0], [(0.6, 0.8, 1.0), (1.0, 1.0, 1.0)]),
                       opacity=Ramp([0.0, 0.7, 1.0], [1.0, 0.8, 0.0]), restitution=0.3, friction=0.2, seed=seed,
                       name="fountain")
+    # a flag pinned at its two top corners, blowing in the wind: soft springs held to 10 % stretch
+    scene.add_cloth_grid(resolution=(16, 12), size=(1.5, 1.0), position=(2.5, 1.2, 2.0), density=0.2,
+                         orientation=(0.0, 0.7071067811865476, 0.0, 0.7071067811865476),   # facing the wind
+                         stiffness=(40.0, 20.0, 2.0), damping=(0.02, 0.01, 0.002), pinned=["top_corners"],
+                         drag=1.2, lift=0.4, max_stretch=0.1, name="flag", color=(0.85, 0.2, 0.2))
     return scene

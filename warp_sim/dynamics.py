@@ -206,6 +206,10 @@ class Dynamics:
             from .fields import FieldForces
 
             self.force_terms.append(FieldForces(model))
+        if any(mesh.drag or mesh.lift for mesh in model.scene.meshes):
+            from .aerodynamics import AeroForces
+
+            self.force_terms.append(AeroForces(model))
         self.force_terms.extend(extra_force_terms)
         self.forces = Forces(model, set().union(*(term.targets for term in self.force_terms)))
         self.components: list[Component] = []

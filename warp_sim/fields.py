@@ -89,8 +89,9 @@ class Turbulence(Field):
     strength [m/s^2] >= 0 scales Warp's curl noise, whose magnitude averages about 1
     and stays below 4 (largest seen: 3.1 with one octave, 3.6 with several); scale [m]
     > 0: the size of the eddies; frequency [1/s] >= 0: how fast the field changes in
-    time (0: steady, and then Warp's 3-D curl noise, about 3x cheaper than the 4-D one); seed: integer in [0, 2^31) selecting the field; octaves:
-    integer in [1, 16], each adding detail at half the size and half the weight.
+    time (0: steady, and then Warp's 3-D curl noise, about 3x cheaper than the 4-D one);
+    seed: integer in [0, 2^31) selecting the field; octaves: integer in [1, 16], each
+    adding detail at half the size and half the weight.
     Evaluated in float32 (Warp's noise), also in float64 scenes.
     """
     strength: float

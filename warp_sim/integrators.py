@@ -143,3 +143,9 @@ INTEGRATORS = {cls.name: cls for cls in (Euler, Midpoint, RK4, SymplecticEuler, 
 def make_integrator(name: str, dynamics: Dynamics) -> Integrator:
     """The solver called ``name`` (one of INTEGRATORS) for ``dynamics``."""
     return INTEGRATORS[checks.choice("integrator", name, tuple(INTEGRATORS))](dynamics)
+
+
+# registered last: warp_sim.implicit imports Partitioned from this module
+from .implicit import ImplicitEuler  # noqa: E402
+
+INTEGRATORS[ImplicitEuler.name] = ImplicitEuler

@@ -34,6 +34,31 @@ class Plane:
 
 
 @dataclass(frozen=True)
+class SurfaceMesh:
+    """A cloth or soft body: particles start .. start + count - 1 drawn as one UsdGeom.Mesh.
+
+    face_counts (F,) and face_indices (sum of face_counts,): the faces, with indices
+    local to the mesh (0 .. count - 1); triangles (T, 3): the faces split into
+    triangles, global particle indices (for aerodynamics); springs: global spring
+    indices of its structural, shear and bend families (dict of arrays); drag and
+    lift: aerodynamic coefficients (0: none); air_density [kg/m^3]; max_stretch:
+    the strain limit of its structural and shear springs (e.g. 0.1 = 10 %), or None.
+    """
+    name: str
+    start: int
+    count: int
+    face_counts: np.ndarray
+    face_indices: np.ndarray
+    triangles: np.ndarray
+    springs: dict
+    color: tuple
+    drag: float = 0.0
+    lift: float = 0.0
+    air_density: float = 1.2
+    max_stretch: float | None = None
+
+
+@dataclass(frozen=True)
 class RigidBody:
     """One rigid body as added: its shape, mass properties and initial state (world frame, SI).
 
@@ -78,6 +103,7 @@ class Scene:
         self._body_names: set[str] = set()      # unique-name checks stay O(1) for 10^5 bodies
         self.fields: list = []
         self.emitters: list = []
+        self.meshes: list[SurfaceMesh] = []     # cloths and soft bodies
         self.planes: list[Plane] = []
         self._particles: dict[str, list[np.ndarray]] = {key: [] for key in (
             "position", "velocity", "mass", "radius", "pinned", "restitution", "friction")}
@@ -221,6 +247,147 @@ class Scene:
         for key, chunk in zip(self._springs, (p, ks, kd, length)):
             self._springs[key].append(chunk)
         return np.arange(start, start + count)
+
+    # cloth and soft bodies -----------------------------------------------------
+    def add_cloth_grid(self, resolution=(32, 32), size=(1.0, 1.0), position=(0.0, 0.0, 0.0),
+                       orientation=(0.0, 0.0, 0.0, 1.0), mass: float | None = None, density: float | None = None,
+                       stiffness=(1.0e4, 1.0e4, 1.0e3), damping=(1.0, 1.0, 0.1), pinned=(), velocity=(0.0, 0.0, 0.0),
+                       drag: float = 0.0, lift: float = 0.0, air_density: float = 1.2,
+                       max_stretch: float | None = None, radius=0.002, restitution: float | None = None,
+                       friction: float | None = None, name: str | None = None,
+                       color=(0.8, 0.3, 0.3)) -> np.ndarray:
+        """Add a rectangular mass-spring cloth; returns its global particle ids, shape (ny, nx) (row-major).
+
+        resolution (nx, ny): ny rows of nx vertices (each >= 2); size (width, height) [m].
+        The grid lies in its local x-y plane, x along the width and y along the height,
+        centred on ``position`` [m], then turned by ``orientation`` (quaternion x, y, z, w)
+        about its centre: by default it hangs upright facing +z; (-sin 45deg, 0, 0, cos 45deg)
+        lays it flat facing +y, its last row ("top") towards -z. Vertex (i, j), column i, row j,
+        is ids[j, i]; row 0 is the bottom (-y), column 0 the left (-x).
+        mass: the total [kg], or density: per unit area [kg/m^2] (not both; neither: 0.1 kg/m^2);
+        a vertex gets a quarter of the mass of each quad it belongs to (corners and edges less).
+        stiffness [N/m] and damping [N s/m]: per family (structural, shear, bend), or one value
+        for all: structural springs along rows and columns, shear springs across both diagonals
+        of each quad, bend springs to the second neighbours along rows and columns; rest length =
+        initial length. pinned: vertex indices (row-major, into this grid) and/or names "corners",
+        "top_corners" (both ends of the last row), "top", "bottom", "left", "right" (whole edges).
+        velocity [m/s]: initial, of every free vertex. drag, lift (>= 0), air_density [kg/m^3] and
+        max_stretch (strain limit of structural and shear springs, > 0, or None) are recorded for
+        aerodynamics and strain limiting. radius [m] (collision; default 2 mm, half a thickness that
+        keeps a cloth lying on the ground from coinciding with it), restitution, friction, name
+        and color as for add_particles. Recorded in ``scene.meshes`` with the quads as faces.
+        """
+        from . import cloth
+
+        topology = cloth.grid_cloth(resolution, size)
+        nx, ny = cloth.grid_resolution(resolution)
+        masses = cloth.total_masses(topology.weights, mass, density, cloth.DEFAULT_CLOTH_DENSITY, "m^2")
+        pins = cloth.grid_pins(pinned, nx, ny)
+        ids = self._add_surface("cloth", topology, masses, pins, position, orientation, velocity, stiffness, damping,
+                                radius, restitution, friction, name, color, (drag, lift, air_density, max_stretch))
+        return ids.reshape(ny, nx)
+
+    def add_cloth_mesh(self, mesh, position=(0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0),
+                       mass: float | None = None, density: float | None = None, stiffness=(1.0e4, 1.0e4, 1.0e3),
+                       damping=(1.0, 1.0, 0.1), pinned=(), velocity=(0.0, 0.0, 0.0), drag: float = 0.0,
+                       lift: float = 0.0, air_density: float = 1.2, max_stretch: float | None = None, radius=0.002,
+                       restitution: float | None = None, friction: float | None = None, name: str | None = None,
+                       color=(0.8, 0.3, 0.3)) -> np.ndarray:
+        """Add a mass-spring cloth on any triangle (or triangulated quad) mesh; returns its global particle ids.
+
+        mesh: a trimesh.Trimesh or a file trimesh reads (``trimesh.load(path, force="mesh",
+        process=False)``: vertices kept as they are, vertex i is ids[i]; see cloth.load_mesh for
+        what is rejected). Its vertices [m] are turned by ``orientation`` about the mesh origin and
+        moved by ``position``. The structural, shear and bend families are found by the rules in
+        warp_sim.cloth (on a triangulated quad grid they match add_cloth_grid's). mass [kg] or
+        density [kg/m^2] (not both; neither: 0.1 kg/m^2), spread by area: each triangle gives a
+        third of its mass to each corner. pinned: vertex indices. Every other argument as for
+        add_cloth_grid. Recorded in ``scene.meshes`` with the mesh's triangles as faces.
+        """
+        from . import cloth
+
+        vertices, faces = cloth.load_mesh(mesh)
+        topology = cloth.mesh_cloth(vertices, faces)
+        masses = cloth.total_masses(topology.weights, mass, density, cloth.DEFAULT_CLOTH_DENSITY, "m^2")
+        pins = cloth.vertex_pins(pinned, topology.count)
+        return self._add_surface("cloth", topology, masses, pins, position, orientation, velocity, stiffness, damping,
+                                 radius, restitution, friction, name, color, (drag, lift, air_density, max_stretch))
+
+    def add_soft_mesh(self, mesh, mass: float = 1.0, stiffness: float = 1.0e4, damping: float = 1.0,
+                      distribution: str = "uniform", internal: str | None = "two_ring",
+                      internal_stiffness: float | None = None, internal_damping: float | None = None, pinned=(),
+                      position=(0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0), velocity=(0.0, 0.0, 0.0),
+                      radius=0.002, restitution: float | None = None, friction: float | None = None,
+                      name: str | None = None, color=(0.3, 0.6, 0.9)) -> np.ndarray:
+        """Add a soft body: every mesh vertex a point mass, every edge a damped spring; returns its particle ids.
+
+        mesh: as for add_cloth_mesh (vertex i is ids[i]), turned by ``orientation`` about the mesh
+        origin and moved by ``position`` [m]. mass [kg]: the total, spread by ``distribution``:
+        "uniform" (evenly), "area" (a third of each triangle's area to its corners) or "volume"
+        (closed meshes only: with c the solid's centroid, each tetrahedron (c, triangle) gives a
+        third of its volume to the triangle's corners; a vertex whose share is not positive, in
+        a solid not star-shaped about c, is rejected). stiffness [N/m] and damping [N s/m] of the
+        edge springs (rest length = edge length). internal="two_ring" adds a spring between every
+        two vertices exactly two edges apart, with internal_stiffness and internal_damping (default:
+        stiffness and damping): edge springs alone let a closed surface dent (a vertex mirrored
+        through its neighbours' plane keeps every edge length), two-ring springs resist that as
+        bend springs resist folding a cloth; None adds none. pinned: vertex indices; velocity
+        [m/s]: initial. radius, restitution, friction, name, color as for add_cloth_grid.
+        Recorded in ``scene.meshes`` (springs: "structural" = edges, "bend" = two-ring, "shear" empty).
+        """
+        from . import cloth
+
+        vertices, faces = cloth.load_mesh(mesh)
+        topology = cloth.soft_mesh(vertices, faces, distribution, internal)
+        masses = cloth.total_masses(topology.weights, mass, None, None, "")
+        pins = cloth.vertex_pins(pinned, topology.count)
+        ks = checks.scalar("stiffness", stiffness, low=0.0)
+        kd = checks.scalar("damping", damping, low=0.0)
+        ks_in = ks if internal_stiffness is None else checks.scalar("internal_stiffness", internal_stiffness, low=0.0)
+        kd_in = kd if internal_damping is None else checks.scalar("internal_damping", internal_damping, low=0.0)
+        return self._add_surface("soft", topology, masses, pins, position, orientation, velocity, (ks, 0.0, ks_in),
+                                 (kd, 0.0, kd_in), radius, restitution, friction, name, color, (0.0, 0.0, 1.2, None))
+
+    def _add_surface(self, prefix: str, topology, masses: np.ndarray, pins: np.ndarray, position, orientation,
+                     velocity, stiffness, damping, radius, restitution, friction, name, color, aero) -> np.ndarray:
+        """Place a cloth.Topology, check the remaining options, then add its particles, springs and SurfaceMesh
+        (nothing is added unless every check passes)."""
+        from . import cloth
+
+        ks, kd = cloth.family_values("stiffness", stiffness), cloth.family_values("damping", damping)
+        q = checks.unit_quaternion("orientation", orientation)
+        x = topology.vertices @ quat_to_matrix(q).T + checks.vec3("position", position)
+        count = len(x)
+        v = np.tile(checks.vec3("velocity", velocity), (count, 1))
+        v[pins] = 0.0
+        pin = np.zeros(count, dtype=bool)
+        pin[pins] = True
+        r = checks.per_element("radius", radius, count, low=0.0)
+        e = np.full(count, -1.0 if restitution is None else checks.scalar("restitution", restitution, 0.0, 1.0))
+        mu = np.full(count, -1.0 if friction is None else checks.scalar("friction", friction, low=0.0))
+        rgb = tuple(checks.finite_array("color", color, (3,)))
+        drag, lift, air_density, max_stretch = aero
+        drag, lift = checks.scalar("drag", drag, low=0.0), checks.scalar("lift", lift, low=0.0)
+        air_density = checks.scalar("air_density", air_density, low=0.0, low_open=True)
+        if max_stretch is not None:
+            max_stretch = checks.scalar("max_stretch", max_stretch, low=0.0, low_open=True)
+        if name is None:
+            taken = {group.name for group in self.particle_groups}
+            name = next(f"{prefix}{k}" for k in range(len(self.meshes), len(self.meshes) + len(taken) + 1)
+                        if f"{prefix}{k}" not in taken)
+        ids = self._append_particles(name, rgb, False, (x, v, masses, r, pin, e, mu))
+        start = int(ids[0])
+        springs = {}
+        for family, stiff, damp in zip(cloth.FAMILIES, ks, kd):
+            pairs = topology.springs[family]
+            length = np.linalg.norm(x[pairs[:, 1]] - x[pairs[:, 0]], axis=1)
+            pairs, length = pairs[length > 0.0], length[length > 0.0]  # coincident (unjoined) vertices: no spring
+            springs[family] = (self.add_springs(pairs + start, stiff, damp, rest_length=length) if len(pairs)
+                               else np.zeros(0, dtype=np.int64))
+        self.meshes.append(SurfaceMesh(name, start, count, topology.face_counts, topology.face_indices,
+                                       topology.triangles + start, springs, rgb, drag, lift, air_density,
+                                       max_stretch))
+        return ids
 
     # rigid bodies --------------------------------------------------------------
     @property

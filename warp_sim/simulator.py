@@ -42,16 +42,27 @@ def body_spec(index: int, body):
 
 
 def stage_layout(scene: Scene):
-    """The USD StageLayout of a scene: its particle groups, springs, bodies and planes."""
-    from .stages import PlaneSpec, PointsGroup, StageLayout
+    """The USD StageLayout of a scene: its particle groups, springs, bodies, planes, cloths and soft bodies.
+
+    A cloth's or soft body's particles and springs are drawn as its UsdGeom.Mesh only, not also
+    as Points and spring curves."""
+    from .stages import MeshSpec, PlaneSpec, PointsGroup, StageLayout
 
     radius = scene.particle_array("radius")
+    meshed = {(m.start, m.count) for m in scene.meshes}
     groups = tuple(PointsGroup(g.name, g.start, g.count, 2.0 * radius[g.start:g.start + g.count], g.color,
-                               pooled=g.pooled) for g in scene.particle_groups)
+                               pooled=g.pooled) for g in scene.particle_groups if (g.start, g.count) not in meshed)
     planes = tuple(PlaneSpec(p.name, tuple(p.normal), p.offset) for p in scene.planes)
-    springs = scene.spring_array("pairs") if scene.spring_count else None
+    springs = None
+    if scene.spring_count:
+        drawn = np.ones(scene.spring_count, dtype=bool)
+        for mesh in scene.meshes:
+            for family in mesh.springs.values():
+                drawn[np.asarray(family, dtype=np.int64)] = False
+        springs = scene.spring_array("pairs")[drawn] if drawn.any() else None
     bodies = tuple(body_spec(index, body) for index, body in enumerate(scene.bodies))
-    return StageLayout(points_groups=groups, springs=springs, planes=planes, bodies=bodies)
+    meshes = tuple(MeshSpec(m.name, m.start, m.count, m.face_counts, m.face_indices, m.color) for m in scene.meshes)
+    return StageLayout(points_groups=groups, springs=springs, planes=planes, bodies=bodies, meshes=meshes)
 
 
 class Simulator:
@@ -84,6 +95,11 @@ class Simulator:
         self.dynamics = Dynamics(self.model, penalty)
         self.integrator = make_integrator(integrator, self.dynamics)
         self.impacts = PlaneImpacts(self.model) if contact == "impulse" and particle_planes else None
+        self.strain_limiter = None
+        if any(mesh.max_stretch is not None for mesh in scene.meshes):
+            from .strain import StrainLimiter
+
+            self.strain_limiter = StrainLimiter(self.model)
         self.state = self.dynamics.initial_state()
         self._next = self.dynamics.new_state()
         self.emitters = None
@@ -173,6 +189,8 @@ class Simulator:
         if self.emitters is not None:
             self.emitters.check_step(h)
         self.integrator.step(self.state, self._next, self.time, h)
+        if self.strain_limiter is not None:
+            self.strain_limiter.apply(self.state, self._next, h)
         if self.impacts is not None:
             self.impacts.apply(self.state, self._next, h)
         self.dynamics.post_step(self._next)

@@ -11,6 +11,8 @@ Topics:
 - ``springs``: the damped Hooke spring forces
 - ``fields``: force fields on particles (point attractors, vortices, curl-noise turbulence)
 - ``emitters``: particle births into pools, ageing, deaths and attributes over life
+- ``cloth``: aerodynamic drag and lift on triangles, Provot strain limiting
+- ``implicit``: the spring Jacobians and solves of the implicit Euler step
 - ``rigid``: rigid-body rates (x, q, P, L), orientation renormalisation, impulses, derived v, omega and R
 - ``planes``: particle-plane contacts, time-of-impact impulse and penalty responses
 - ``guards``: detection of non-finite or runaway states

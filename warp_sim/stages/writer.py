@@ -15,6 +15,11 @@ exactly the alive slots, selected with one boolean mask per group; a frame with
 no live particle samples empty arrays and blocks the extent (``Sdf.ValueBlock``),
 so bounds are computed (empty) rather than held from a neighbouring frame.
 
+A cloth or soft body (``MeshSpec``) is a ``UsdGeom.Mesh`` at ``/World/Meshes/<name>`` whose
+vertices are a range of particles: its topology (faceVertexCounts, faceVertexIndices), no
+subdivision, double-sided and a constant displayColor are authored once; points,
+velocities and extent are sampled every frame.
+
 A rigid body is a ``UsdGeom.Xform`` whose ``xformOp:translate`` (centre of
 mass, metres, double) and ``xformOp:orient`` (unit quaternion, float) are
 sampled every frame, with its shape as a static child ``Geom``. Body samples
@@ -46,7 +51,7 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdPhysics, Vt
 if TYPE_CHECKING:
     from typing_extensions import Self  # typing.Self needs Python 3.11
 
-__all__ = ["BodySpec", "PlaneSpec", "PointsGroup", "StageLayout", "StageWriter"]
+__all__ = ["BodySpec", "MeshSpec", "PlaneSpec", "PointsGroup", "StageLayout", "StageWriter"]
 
 #: USD file extensions accepted by the writer (the format follows the extension).
 USD_EXTENSIONS = (".usd", ".usdc", ".usda")
@@ -109,11 +114,31 @@ class BodySpec:
 
 
 @dataclass(frozen=True)
+class MeshSpec:
+    """A deforming ``UsdGeom.Mesh`` at /World/Meshes/<name> whose vertices are particles ``start .. start+count-1``.
+
+    ``face_counts`` (F,): vertices per face (>= 3); ``face_indices`` (sum of face_counts,):
+    vertex indices local to the mesh (0 .. count-1), each face counter-clockwise seen from
+    its front (USD's rightHanded orientation). Drawn double-sided without subdivision in
+    ``color``, the linear-RGB displayColor in 0..1. ``name`` is made a valid USD identifier
+    with ``Tf.MakeValidIdentifier``. Its particles may also be in a PointsGroup (then drawn
+    twice); ``warp_sim.simulator.stage_layout`` leaves them out of the Points.
+    """
+
+    name: str
+    start: int
+    count: int
+    face_counts: np.ndarray
+    face_indices: np.ndarray
+    color: tuple = (0.8, 0.8, 0.8)
+
+
+@dataclass(frozen=True)
 class StageLayout:
-    """What the stage contains: particle groups, spring segments, static planes, rigid bodies.
+    """What the stage contains: particle groups, spring segments, static planes, rigid bodies, meshes.
 
     ``springs`` is ``(K, 2)`` global particle indices (or None); ``spring_width``
-    is the drawn curve width in metres.
+    is the drawn curve width in metres; ``meshes``: cloths and soft bodies.
     """
 
     points_groups: tuple[PointsGroup, ...] = ()
@@ -121,6 +146,7 @@ class StageLayout:
     spring_width: float = 0.005
     planes: tuple[PlaneSpec, ...] = ()
     bodies: tuple[BodySpec, ...] = ()
+    meshes: tuple[MeshSpec, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -379,6 +405,55 @@ class _PlaneWriter(_PrimWriter):
         mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
 
 
+class _MeshWriter(_PrimWriter):
+    """A cloth or soft body: a ``UsdGeom.Mesh`` with its topology, no subdivision, double-sided and a
+    constant displayColor authored once; points, velocities and extent of its particles sampled per frame."""
+
+    def __init__(self, mesh: MeshSpec):
+        label = f"MeshSpec {mesh.name!r}"
+        whole = all(isinstance(n, (int, np.integer)) and not isinstance(n, bool) for n in (mesh.start, mesh.count))
+        _require(whole and mesh.start >= 0 and mesh.count >= 3,
+                 f"{label}: start must be an integer >= 0 and count an integer >= 3, got start={mesh.start!r}, "
+                 f"count={mesh.count!r}")
+        start, count = int(mesh.start), int(mesh.count)
+        counts, indices = np.asarray(mesh.face_counts), np.asarray(mesh.face_indices)
+        _require(counts.ndim == 1 and counts.size >= 1 and np.issubdtype(counts.dtype, np.integer)
+                 and int(counts.min()) >= 3,
+                 f"{label}: face_counts must be a 1-d integer array of faces' vertex counts (each >= 3), got "
+                 f"{counts.dtype} {counts.shape}")
+        _require(indices.ndim == 1 and np.issubdtype(indices.dtype, np.integer) and indices.size == int(counts.sum()),
+                 f"{label}: face_indices must be a 1-d integer array of sum(face_counts) = {int(counts.sum())} "
+                 f"indices, got {indices.dtype} {indices.shape}")
+        _require(int(indices.min()) >= 0 and int(indices.max()) < count,
+                 f"{label}: face_indices must index its {count} vertices (0 .. {count - 1}), got "
+                 f"{int(indices.min())} .. {int(indices.max())}")
+        self.color = _color(label, mesh.color)
+        self.counts = Vt.IntArray.FromNumpy(counts.astype(np.int32))
+        self.indices = Vt.IntArray.FromNumpy(indices.astype(np.int32))
+        self.path = WORLD_PATH.AppendPath(Sdf.Path(f"Meshes/{_identifier(mesh.name)}"))
+        self.slice = slice(start, start + count)
+        self.min_particles = start + count
+
+    def define(self, stage: Usd.Stage) -> None:
+        mesh = UsdGeom.Mesh.Define(stage, self.path)
+        mesh.CreateFaceVertexCountsAttr(self.counts)
+        mesh.CreateFaceVertexIndicesAttr(self.indices)
+        mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+        mesh.CreateDoubleSidedAttr(True)
+        mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set(_vec3f(self.color))
+        self.points, self.velocities = mesh.CreatePointsAttr(), mesh.CreateVelocitiesAttr()
+        self.extent = mesh.CreateExtentAttr()
+
+    def write(self, frame: _Frame) -> None:
+        time, p = frame.time, frame.particle_x[self.slice]
+        self.points.Set(_vec3f(p), time)
+        self.velocities.Set(_vec3f(frame.particle_v[self.slice]), time)
+        self.extent.Set(_extent(p, p), time)
+
+    def uses(self, lo: int, hi: int) -> bool:
+        return self.slice.start < hi and lo < self.slice.stop
+
+
 #: Number of ``BodySpec.size`` values per body kind, and what they are.
 BODY_SIZES = {"sphere": (1, "(radius,)"), "box": (3, "half extents (hx, hy, hz)"),
               "capsule": (2, "(radius, half_height)"), "cylinder": (2, "(radius, half_height)"),
@@ -483,6 +558,7 @@ def _prim_writers(layout: StageLayout) -> list[_PrimWriter]:
         writers.append(_SpringsWriter(layout.springs, layout.spring_width))
     writers += [_PlaneWriter(p) for p in layout.planes]
     writers += [_BodyWriter(b) for b in layout.bodies]
+    writers += [_MeshWriter(m) for m in layout.meshes]
     dupes = sorted(str(p) for p, n in Counter(w.path for w in writers).items() if n > 1)  # linear: thousands of bodies
     _require(not dupes, f"layout names must be unique after Tf.MakeValidIdentifier; duplicated prim paths: {dupes}")
     for pool in (w for w in writers if w.pool is not None):  # dead slots hold no valid particle

@@ -1,0 +1,190 @@
+"""Implicit Euler for stiff springs: the linearised backward Euler step of Baraff and Witkin (1998).
+
+For the particles, one step solves the linear system
+
+    (M - h dF/dv - h^2 dF/dx) dv = h (F + h dF/dx v0),   v1 = v0 + dv,   x1 = x0 + h v1,
+
+that is backward Euler with the forces linearised about the start of the step (exact
+backward Euler when the forces are linear). What is implicit and what is explicit:
+
+- F is the full force on each particle from the Dynamics, F = m a with a from
+  ``Dynamics.velocity_derivative``: gravity, drag, wind, force fields, springs, penalty
+  contacts, whatever force terms are present.
+- The Jacobians are those of the damped springs (dF/dx and dF/dv, assembled on the
+  device into a 3x3-block sparse matrix) and of the linear drag (dF/dv = -c I, c the
+  scene's drag). Every other force (fields, penalty contacts, wind) is treated
+  explicitly: it enters through F only.
+- For a compressed spring (L < L0) the geometric term (1 - L0/L)(I - d d^T) of dF/dx
+  is negative and would make the system indefinite; it is clamped at zero (Choi and
+  Ko 2002), which keeps the matrix symmetric positive definite for conjugate gradient.
+  The damper's derivative with respect to positions (not symmetric) is left out, as
+  Baraff and Witkin do. Both only change how the step is linearised, not its fixed
+  points: a state at rest in equilibrium stays exactly at rest.
+- Pinned particles (inverse mass 0, including dead emitter slots) are eliminated: their
+  rows and columns are the identity with a zero right-hand side, and the velocity update
+  writes dv = 0 for them, so their velocity change is exactly 0.
+- Rigid bodies, if present, advance by symplectic Euler inside the same step (their
+  momenta kicked with the forces at the start, then a drift with the new momenta):
+  implicit in the springs, explicit elsewhere.
+
+The system is solved by preconditioned conjugate gradient (``warp.optim.linear.CG``,
+block-Jacobi by default) to a relative residual ``tolerance``; ``last_iterations`` and
+``last_residual`` record the last solve. Both precisions work: Warp's BSR matrices and
+CG accept float32 (mat33f) and float64 (mat33d) blocks.
+"""
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+import warp.optim.linear as wp_linear
+import warp.sparse as wp_sparse
+
+from . import checks
+from .integrators import Partitioned
+from .kernels import implicit as implicit_kernels
+
+PRECONDITIONERS = ("block_jacobi", "diag", "none")
+
+
+class ImplicitEuler(Partitioned):
+    """Linearised backward Euler (Baraff and Witkin 1998), implicit in the springs and the linear drag.
+
+    First order, unconditionally stable for the springs (at any step a linear spring
+    oscillator loses amplitude by 1 / sqrt(1 + h^2 w^2) per step: numerical damping).
+
+    tolerance: relative residual of the conjugate gradient solve, |b - A dv| <= tolerance |b|
+    (0 < tolerance < 1); max_iterations: cap on CG iterations per step (>= 1; a solve that
+    hits it is counted in ``unconverged_solves`` and its iterate used as it is);
+    preconditioner: "block_jacobi" (the inverse of each particle's 3x3 diagonal block),
+    "diag" (Jacobi) or "none"; warm_start: start CG from the last step's dv instead of 0;
+    check_every: CG checks its residual (a device-to-host read) every this many iterations,
+    so ``last_iterations`` is exact with 1 and rounded up to a multiple otherwise.
+
+    After each step: ``last_iterations`` (CG iterations of the last solve), ``last_residual``
+    (|b - A dv| of the last solve, CG's recursively updated residual [N s]),
+    ``last_rhs_norm`` (|b| [N s]) and ``last_converged``.
+    """
+
+    name, order = "implicit_euler", 1
+
+    def __init__(self, dynamics, tolerance: float = 1.0e-6, max_iterations: int = 200,
+                 preconditioner: str = "block_jacobi", warm_start: bool = False, check_every: int = 1):
+        self.tolerance = checks.scalar("tolerance", tolerance, low=0.0, low_open=True)
+        if self.tolerance >= 1.0:
+            raise checks.fail("tolerance", tolerance, "must be > 0 and < 1 (a relative residual)")
+        self.max_iterations = _count("max_iterations", max_iterations)
+        self.check_every = _count("check_every", check_every)
+        self.preconditioner = checks.choice("preconditioner", preconditioner, PRECONDITIONERS)
+        self.warm_start = bool(warm_start)
+        super().__init__(dynamics)
+        self.model = dynamics.model
+        self.last_iterations = 0
+        self.last_residual = 0.0
+        self.last_rhs_norm = 0.0
+        self.last_converged = True
+        self.unconverged_solves = 0
+        if self.model.particle_count:
+            self._build_system()
+
+    # set-up ----------------------------------------------------------------------
+    def _build_system(self) -> None:
+        """Allocate the matrix (fixed topology: diagonal + each spring's four blocks), the triplet
+        values, the vectors and the CG solver, once."""
+        m = self.model
+        n, springs, device = m.particle_count, m.spring_count, m.device
+        self.vec3 = m.vec3
+        self.mat33 = m.mat33
+        rows, cols = [np.arange(n)], [np.arange(n)]
+        if springs:
+            pairs = m.scene.spring_array("pairs").astype(np.int64)
+            p1, p2 = pairs[:, 0], pairs[:, 1]
+            rows.append(np.stack([p1, p2, p1, p2], axis=1).ravel())   # triplet N + 4 s + (0, 1, 2, 3)
+            cols.append(np.stack([p1, p2, p2, p1], axis=1).ravel())
+        rows, cols = np.concatenate(rows).astype(np.int32), np.concatenate(cols).astype(np.int32)
+        self.triplets = wp.zeros(len(rows), dtype=self.mat33, device=device)
+        self.diagonal_triplets = self.triplets[:n]          # views kept, so recorded launches stay valid
+        self.A = wp_sparse.bsr_zeros(n, n, self.mat33, device=device)
+        self.mapping = wp_sparse.bsr_set_from_triplets(
+            self.A, wp.array(rows, dtype=int, device=device), wp.array(cols, dtype=int, device=device),
+            self.triplets, prune_numerical_zeros=False, build_mapping=True)
+        self.A.nnz_sync()   # tightens the block count the value gathers launch over
+        self.rhs = wp.zeros(n, dtype=self.vec3, device=device)
+        self.dv = wp.zeros(n, dtype=self.vec3, device=device)
+        self.diagonal_blocks = wp.zeros(n, dtype=self.mat33, device=device)
+        self.inverse_blocks = wp.zeros(n, dtype=self.mat33, device=device)
+        M = None
+        if self.preconditioner != "none":
+            M = wp_linear.LinearOperator((3 * n, 3 * n), self.mat33, device, self._apply_preconditioner)
+        self.solver = wp_linear.cg(self.A, self.rhs, self.dv, tol=self.tolerance, maxiter=self.max_iterations,
+                                   M=M, check_every=self.check_every, run=False)
+        if device.is_cpu:
+            _small_cpu_dot_tiles(self.solver, 3 * n, self.scalar, device)
+
+    def _apply_preconditioner(self, x, y, z, alpha, beta) -> None:
+        """z = alpha P x + beta y, P the block (or scalar) Jacobi inverse of A's diagonal."""
+        wp.launch(implicit_kernels.apply_blocks, self.model.particle_count,
+                  [self.inverse_blocks, x, y, z, self.scalar(alpha), self.scalar(beta)], device=self.model.device)
+
+    # the step --------------------------------------------------------------------
+    def step(self, state_in, state_out, t, h):
+        # forces and rates of every component at the start; an explicit kick of the whole
+        # velocity block (the bodies' symplectic Euler kick), whose particle part is then replaced
+        self.kick(state_in, state_in, state_out, t, h)
+        if self.model.particle_count:
+            self._solve_particles(state_in, state_out, h)
+        self.drift(state_in, state_out, h)   # x1 = x0 + h v1 for particles; bodies as symplectic Euler
+
+    def _solve_particles(self, state_in, state_out, h: float) -> None:
+        m, scalar = self.model, self.scalar
+        n = m.particle_count
+        self.launch(implicit_kernels.particle_system, n,
+                    [self.k.particle_v, m.particle_inv_mass, scalar(h), scalar(h * m.scene.drag),
+                     int(self.warm_start), self.diagonal_triplets, self.rhs, self.dv])
+        if m.spring_count:
+            self.launch(implicit_kernels.spring_system, m.spring_count,
+                        [state_in.particle_x, state_in.particle_v, m.spring_pairs, m.spring_stiffness,
+                         m.spring_damping, m.spring_rest_length, m.particle_inv_mass, scalar(h), n,
+                         self.triplets, self.rhs])
+        wp_sparse.bsr_set_from_mapped_values(self.A, self.mapping, self.triplets, reduction="gather")
+        if self.preconditioner != "none":
+            wp_sparse.bsr_get_diag(self.A, out=self.diagonal_blocks)
+            self.launch(implicit_kernels.invert_blocks, n,
+                        [self.diagonal_blocks, int(self.preconditioner == "diag"), self.inverse_blocks])
+        iterations, residual, atol = self.solver()
+        self.last_iterations = int(iterations)
+        self.last_residual = float(residual)
+        self.last_rhs_norm = float(atol) / self.tolerance
+        self.last_converged = self.last_residual <= float(atol)
+        if not self.last_converged:
+            self.unconverged_solves += 1
+        self.launch(implicit_kernels.velocity_update, n,
+                    [state_in.particle_v, self.dv, m.particle_inv_mass, state_out.particle_v])
+
+
+CPU_DOT_TILE = 16
+
+
+def _small_cpu_dot_tiles(solver, length: int, scalar, device) -> None:
+    """Give a CG solver on the CPU dot products reduced in tiles of CPU_DOT_TILE, not Warp's 512.
+
+    Warp 1.19 runs a tile reduction on the CPU at a cost that grows with the square of the
+    tile size, so CG's default 512-wide dot products take ~40 ms for 12 000 scalars (about
+    25 times a sparse matrix-vector product); 16-wide tiles make them ~1 ms. This replaces
+    a private attribute of ``warp.optim.linear.CG`` (``_tiled_dot``, a ``TiledDot``) when it
+    has the expected form, and leaves the solver as it is otherwise.
+    """
+    try:
+        from warp._src.optim.linear import TiledDot
+    except ImportError:
+        return
+    current = getattr(solver, "_tiled_dot", None)
+    if not isinstance(current, TiledDot) or current.batch_offsets is not None or current.max_column_count != 2:
+        return
+    solver._tiled_dot = TiledDot(max_length=length, scalar_type=scalar, tile_size=CPU_DOT_TILE, device=device,
+                                 max_column_count=2)
+
+
+def _count(name: str, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise checks.fail(name, value, "expected an integer >= 1")
+    return int(value)
