@@ -59,6 +59,18 @@ def floor_bandwidth(device, megabytes: int) -> tuple[float, float]:
     return host, (copy_bandwidth(megabytes, device) if device.is_cuda else host)
 
 
+def floor_setup(parser: argparse.ArgumentParser, requested: str | None, megabytes: int, label: str):
+    """Pick the device, measure the copy bandwidths and print them: (device, its name, host bandwidth,
+    floor bandwidth) [bytes/s]. label: the run's settings for the first line (e.g. "float32, dt = ...")."""
+    device = pick_device(parser, requested)
+    host_bw, floor_bw = floor_bandwidth(device, megabytes)
+    name = device_name(device)
+    print(f"warp {wp.__version__}, device {device.alias} ({name}), {label}")
+    print(f"copy bandwidth (read + write): numpy {host_bw / 1e9:.2f} GB/s"
+          + (f", device wp.copy {floor_bw / 1e9:.1f} GB/s" if device.is_cuda else ""))
+    return device, name, host_bw, floor_bw
+
+
 def time_steps(sim: Simulator, steps: int, dt: float) -> float:
     """Seconds for sim.step(dt, steps) (one guard read at the end), the device synchronised around it."""
     wp.synchronize_device(sim.device)

@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 import warp as wp
-from common import KernelProfile, device_name, floor_bandwidth, markdown, pick_device, time_steps
+from common import KernelProfile, floor_setup, markdown, time_steps
 
 import warp_sim as ws
 from warp_sim import Scene, Simulator
@@ -263,12 +263,7 @@ def main(argv=None) -> None:
     if args.emitter_lifetime < 2 * DT:
         parser.error(f"--emitter-lifetime must be at least {2 * DT:g} s (two steps)")
 
-    device = pick_device(parser, args.device)
-    host_bw, floor_bw = floor_bandwidth(device, args.copy_mb)
-    name = device_name(device)
-    print(f"warp {wp.__version__}, device {device.alias} ({name}), dt = {DT:.6g} s")
-    print(f"copy bandwidth (read + write): numpy {host_bw / 1e9:.2f} GB/s"
-          + (f", device wp.copy {floor_bw / 1e9:.1f} GB/s" if device.is_cuda else ""))
+    device, name, host_bw, floor_bw = floor_setup(parser, args.device, args.copy_mb, f"dt = {DT:.6g} s")
     common = {"device": device.alias, "device_name": name, "warp_version": wp.__version__,
               "warp_sim_version": ws.__version__, "numpy_version": np.__version__, "integrator": "symplectic_euler",
               "contact": "impulse", "precision": "float32", "dt": DT, "numpy_copy_bytes_per_s": host_bw,

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 import warp as wp
-from common import KernelProfile, device_name, floor_bandwidth, markdown, pick_device, time_steps
+from common import KernelProfile, floor_setup, markdown, time_steps
 
 import warp_sim as ws
 
@@ -181,12 +181,8 @@ def main(argv=None) -> None:
     if min(args.sizes) < 1 or args.steps < 1 or args.repeats < 1:
         parser.error("--sizes, --steps and --repeats must be >= 1")
 
-    device = pick_device(parser, args.device)
-    host_bw, floor_bw = floor_bandwidth(device, args.copy_mb)
-    name = device_name(device)
-    print(f"warp {wp.__version__}, device {device.alias} ({name}), {args.precision}, dt = {DT:.6g} s")
-    print(f"copy bandwidth (read + write): numpy {host_bw / 1e9:.2f} GB/s"
-          + (f", device wp.copy {floor_bw / 1e9:.1f} GB/s" if device.is_cuda else ""))
+    device, name, host_bw, floor_bw = floor_setup(parser, args.device, args.copy_mb,
+                                                  f"{args.precision}, dt = {DT:.6g} s")
     kernels_s = load_kernels(device, args.precision, args.integrators)
     print(f"kernels compiled or loaded in {kernels_s:.2f} s", flush=True)
 

@@ -223,7 +223,6 @@ class EmitterPools:
         self.model = model
         self.emitters: list[Emitter] = list(scene.emitters)
         device, count = model.device, model.particle_count
-        groups = {group.start: group for group in scene.particle_groups}
         alive = np.ones(count, dtype=np.int32)
         ids = np.arange(count, dtype=np.int64)
         color = np.zeros((count, 3), dtype=np.float32)
@@ -231,7 +230,6 @@ class EmitterPools:
             color[group.start:group.start + group.count] = group.color
         for e in self.emitters:
             alive[e.start_slot:e.start_slot + e.capacity] = 0
-            assert groups[e.start_slot].count == e.capacity
         self.alive = wp.array(alive, dtype=wp.int32, device=device)
         self.ids = wp.array(ids, dtype=wp.int64, device=device)
         self.color = wp.array(color, dtype=wp.vec3f, device=device)
