@@ -70,6 +70,7 @@ class ImplicitEuler(Partitioned):
     (the absolute threshold it was held to [N s]) and ``last_converged``;
     ``unconverged_solves`` counts the solves that stopped at max_iterations above the threshold.
     """
+    position_response = 1.0
 
     name, order = "implicit_euler", 1
 

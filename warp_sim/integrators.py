@@ -17,6 +17,9 @@ class Integrator:
 
     name = ""
     order = 0
+    #: beta: a force held over a step moves the end position by beta h times the end velocity change it causes
+    #: (1/2 for the trapezoid-like solvers, 1 for symplectic and implicit Euler, 0 for explicit Euler)
+    position_response = 0.5
 
     def __init__(self, dynamics: Dynamics):
         self.dynamics = dynamics
@@ -33,6 +36,7 @@ class Integrator:
 
 class Euler(Integrator):
     """Explicit Euler: y1 = y0 + h f(t, y0). First order."""
+    position_response = 0.0
 
     name, order = "euler", 1
 
@@ -117,6 +121,7 @@ class Partitioned(Integrator):
 class SymplecticEuler(Partitioned):
     """Semi-implicit Euler: velocities from forces at the old positions, then positions
     from the new velocities. First order, symplectic: bounded energy error."""
+    position_response = 1.0
 
     name, order = "symplectic_euler", 1
 

@@ -81,8 +81,34 @@ class RigidBody:
     color: tuple
 
 
+@dataclass(frozen=True)
+class Collider:
+    """A static collider: a shape with infinite mass that never moves (world frame, SI).
+
+    position: where the shape's origin lies [m], (3,); orientation: unit quaternion
+    (x, y, z, w), (4,); restitution and friction for contacts; color RGB in 0..1 for USD.
+    """
+    name: str
+    shape: Shape
+    position: np.ndarray
+    orientation: np.ndarray
+    restitution: float
+    friction: float
+    color: tuple
+
+
+_SHAPE_NAMES = "Sphere, Box, Capsule, Cylinder, MeshShape or PointMasses"
+
+
+def _shape(shape) -> Shape:
+    """``shape`` if it is a warp_sim Shape, else ValueError."""
+    if not isinstance(shape, Shape):
+        raise checks.fail("shape", shape, f"expected a warp_sim shape: {_SHAPE_NAMES}")
+    return shape
+
+
 class Scene:
-    """What to simulate: particles, springs, rigid bodies, planes, and the global forces.
+    """What to simulate: particles, springs, rigid bodies, static colliders, planes, and the global forces.
 
     gravity [m/s^2]; drag: linear drag coefficient on every particle and the
     default for every body [N s/m], the force -drag (v - wind); angular_drag: the
@@ -105,6 +131,7 @@ class Scene:
         self.emitters: list = []
         self.meshes: list[SurfaceMesh] = []     # cloths and soft bodies
         self.planes: list[Plane] = []
+        self.colliders: list[Collider] = []     # static shapes: infinite mass, never move
         self._particles: dict[str, list[np.ndarray]] = {key: [] for key in (
             "position", "velocity", "mass", "radius", "pinned", "restitution", "friction")}
         self._springs: dict[str, list[np.ndarray]] = {key: [] for key in (
@@ -402,7 +429,7 @@ class Scene:
                        color=(0.6, 0.6, 0.65)) -> int:
         """Add a rigid body; returns its body index.
 
-        shape: a ws.Sphere, Box, Capsule, Cylinder, MeshShape or PointMasses; density
+        shape: a ws.Sphere, Box, Capsule, Cylinder, MeshShape (solid) or PointMasses; density
         [kg/m^3] or mass [kg] (one of them; density 1000 when neither); position: where
         the shape's own origin goes [m] (for a mesh or point masses the body's centre of
         mass then lies at position + R com); orientation: quaternion (x, y, z, w),
@@ -410,10 +437,7 @@ class Scene:
         mass [m/s] and angular_velocity [rad/s], world frame; restitution in [0, 1],
         friction >= 0; drag [N s/m] and angular_drag [N m s/rad] default to the scene's.
         """
-        if not isinstance(shape, Shape):
-            raise checks.fail("shape", shape, "expected a warp_sim shape: Sphere, Box, Capsule, Cylinder, "
-                                              "MeshShape or PointMasses")
-        properties = shape.mass_properties(density=density, mass=mass)
+        properties = _shape(shape).mass_properties(density=density, mass=mass)
         q = checks.unit_quaternion("orientation", orientation)
         R = quat_to_matrix(q)
         inertia_world = R @ properties.inertia @ R.T
@@ -448,6 +472,32 @@ class Scene:
         values = [getattr(body, key) for body in self.bodies]
         width = {"position": 3, "orientation": 4, "momentum": 3, "angular_momentum": 3}.get(key)
         return np.array(values, dtype=np.float64).reshape((-1, width) if width else (-1,))
+
+    # static colliders ----------------------------------------------------------
+    def add_collider(self, shape: Shape, position=(0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0),
+                     restitution: float = 0.5, friction: float = 0.4, name: str | None = None,
+                     color=(0.45, 0.45, 0.5)) -> int:
+        """Add a static collider (infinite mass, never moves); returns its index into ``scene.colliders``.
+
+        shape: any warp_sim shape, including a surface ``MeshShape(mesh, solid=False)`` (e.g. a
+        terrain); position: where the shape's own origin goes [m]; orientation: quaternion
+        (x, y, z, w), normalised with a warning if off unit length; restitution in [0, 1],
+        friction >= 0; name (unique among colliders, default "collider<k>") and color (RGB 0..1) for USD.
+        """
+        collider = Collider(
+            name=name or f"collider{len(self.colliders)}", shape=_shape(shape),
+            position=checks.vec3("position", position),
+            orientation=checks.unit_quaternion("orientation", orientation),
+            restitution=checks.scalar("restitution", restitution, low=0.0, high=1.0),
+            friction=checks.scalar("friction", friction, low=0.0),
+            color=tuple(checks.finite_array("color", color, (3,))),
+        )
+        if any(existing.name == collider.name for existing in self.colliders):
+            raise checks.fail("name", collider.name, "collider names must be unique")
+        for array in (collider.position, collider.orientation):
+            array.setflags(write=False)
+        self.colliders.append(collider)
+        return len(self.colliders) - 1
 
     # force fields --------------------------------------------------------------
     def add_field(self, field) -> int:
@@ -486,4 +536,4 @@ class Scene:
 
     def __repr__(self) -> str:
         return (f"Scene({self.particle_count} particles, {self.spring_count} springs, {self.body_count} bodies, "
-                f"{len(self.planes)} planes, {self.precision})")
+                f"{len(self.colliders)} colliders, {len(self.planes)} planes, {self.precision})")

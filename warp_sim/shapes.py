@@ -20,6 +20,7 @@ from . import checks
 DEFAULT_DENSITY = 1000.0  # [kg/m^3]
 SINGULAR_RATIO = 1e-12  # smallest / largest principal moment at or below which a body cannot rotate
 BOUND_SLACK = 1e-6  # relative round-off allowed before a mesh volume exceeds its enclosing volume
+DEGENERATE_RATIO = 1e-12  # twice a face's area / its longest edge^2 at or below which the face has zero area
 
 
 @dataclass(frozen=True, eq=False)
@@ -208,10 +209,12 @@ def _enclosing_volume(vertices: np.ndarray, axes: np.ndarray) -> float:
 
 
 class MeshShape(Shape):
-    """A solid of uniform density bounded by a closed triangle mesh (a ``trimesh.Trimesh``, vertices in [m]).
+    """A solid of uniform density bounded by a closed triangle mesh (a ``trimesh.Trimesh``, vertices in [m]),
+    or with ``solid=False`` a surface (e.g. an open terrain) that only a static collider can use.
 
     The mesh is copied (geometry only) and checked; each failure raises ValueError saying how to fix it:
-    - empty, non-finite vertices, face indices out of range;
+    - empty, non-finite vertices, face indices out of range; a surface: also zero-area faces,
+      and nothing below (it has no volume, mass properties or centre of mass);
     - open (boundary edges) or non-manifold (edges shared by more than two faces);
     - inconsistent face winding; inside out (negative signed volume) or zero volume;
     - anything else ``trimesh`` does not call a volume (``mesh.is_volume``);
@@ -226,24 +229,43 @@ class MeshShape(Shape):
 
     kind = "mesh"
 
-    def __init__(self, mesh):
+    def __init__(self, mesh, solid: bool = True):
+        if not isinstance(solid, (bool, np.bool_)):
+            raise checks.fail("solid", solid, "expected True (a closed solid) or False (a surface, static only)")
+        self.solid = bool(solid)
         if not isinstance(mesh, trimesh.Trimesh):
             raise checks.fail("mesh", mesh, f"expected a trimesh.Trimesh, got {type(mesh).__name__} (load files with "
                               "MeshShape.from_file, which flattens scenes into one mesh)")
         if len(mesh.vertices) == 0 or len(mesh.faces) == 0:
             raise checks.fail("mesh", mesh, f"the mesh is empty ({len(mesh.vertices)} vertices, "
-                              f"{len(mesh.faces)} faces); a solid needs closed triangles")
+                              f"{len(mesh.faces)} faces); {'a solid needs closed' if solid else 'it needs'} triangles")
         vertices = checks.finite_array("mesh.vertices", mesh.vertices, (-1, 3))
         faces = checks.indices("mesh.faces", mesh.faces, len(vertices), (-1, 3))
         self.mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
-        self._check_closed(mesh)
         self.vertices = np.array(self.mesh.vertices, dtype=np.float64)
         self.faces = np.array(self.mesh.faces, dtype=np.int32)
         for array in (self.vertices, self.faces):
             array.setflags(write=False)
+        if not self.solid:
+            self._check_faces(mesh)
+            return
+        self._check_closed(mesh)
         unit = trimesh.triangles.mass_properties(self.mesh.triangles, density=1.0)
         self._unit = MassProperties(unit.volume, unit.center_mass, unit.inertia)
         self._check_volume(mesh)
+
+    def _check_faces(self, original) -> None:
+        """Reject zero-area faces (coincident or collinear corners, to round-off): a surface has no normal there."""
+        a, b, c = np.moveaxis(self.vertices[self.faces], 1, 0)
+        twice_area = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+        longest = np.max([np.sum((b - a) ** 2, axis=1), np.sum((c - b) ** 2, axis=1),
+                          np.sum((a - c) ** 2, axis=1)], axis=0)
+        bad = np.flatnonzero(twice_area <= DEGENERATE_RATIO * longest)
+        if len(bad):
+            raise checks.fail("mesh", original, f"{len(bad)} of {len(self.faces)} faces have zero area (coincident "
+                              f"or collinear corners), the first face {bad[0]} with vertices "
+                              f"{tuple(self.faces[bad[0]].tolist())}; remove them, e.g. "
+                              "mesh.update_faces(mesh.nondegenerate_faces())")
 
     def _check_closed(self, original) -> None:
         mesh = self.mesh
@@ -254,7 +276,9 @@ class MeshShape(Shape):
                               + [f"{shared} non-manifold edges (shared by more than two faces)"] * bool(shared))
             raise checks.fail("mesh", original, f"mesh is {'open' if open_edges else 'not closed'}: {found}, so it "
                               "bounds no volume; close it (e.g. mesh.fill_holes(), or repair in a modeller); a "
-                              "triangle soup with duplicated vertices needs mesh.merge_vertices() first")
+                              "triangle soup with duplicated vertices needs mesh.merge_vertices() first; an open "
+                              "surface such as a terrain can only be a static collider: MeshShape(mesh, "
+                              "solid=False) with scene.add_collider")
         if not mesh.is_winding_consistent:
             raise checks.fail("mesh", original, "the face winding is inconsistent (neighbouring faces point opposite "
                               "ways), so the volume would be wrong; fix it with trimesh.repair.fix_winding(mesh)")
@@ -279,8 +303,9 @@ class MeshShape(Shape):
                               "them into one surface (a boolean union in a modeller)")
 
     @classmethod
-    def from_file(cls, path) -> MeshShape:
-        """Load a mesh file (OBJ, STL, PLY, GLB, ...; coordinates in [m]) with ``trimesh.load(path, force="mesh")``."""
+    def from_file(cls, path, solid: bool = True) -> MeshShape:
+        """Load a mesh file (OBJ, STL, PLY, GLB, ...; coordinates in [m]) with ``trimesh.load(path, force="mesh")``;
+        ``solid`` as for MeshShape."""
         if not isinstance(path, (str, os.PathLike)) or not os.path.isfile(path):
             raise checks.fail("path", path, "no such file")
         try:
@@ -290,19 +315,26 @@ class MeshShape(Shape):
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise checks.fail("path", path, "the file holds no triangles")
         try:
-            return cls(mesh)
+            return cls(mesh, solid)
         except ValueError as error:
             raise checks.fail("path", path, str(error)) from None
 
     def _unit_properties(self) -> MassProperties:
+        if not self.solid:
+            raise checks.fail("shape", self, "a surface mesh (solid=False) bounds no volume, so it has no volume or "
+                              "mass properties and cannot be a dynamic rigid body; it can only be a static collider "
+                              "(scene.add_collider(shape, ...))")
         return self._unit
 
     @property
     def bounding_radius(self) -> float:
-        return float(np.max(np.linalg.norm(self.vertices - self._unit.com, axis=1)))
+        """The radius [m] about the centre of mass (a surface: about the shape origin) enclosing every vertex."""
+        centre = self._unit.com if self.solid else np.zeros(3)
+        return float(np.max(np.linalg.norm(self.vertices - centre, axis=1)))
 
     def __repr__(self) -> str:
-        return f"MeshShape(vertices={len(self.vertices)}, faces={len(self.faces)}, volume={self.volume:.6g})"
+        shown = f"volume={self.volume:.6g}" if self.solid else "solid=False"
+        return f"MeshShape(vertices={len(self.vertices)}, faces={len(self.faces)}, {shown})"
 
 
 class PointMasses(Shape):

@@ -6,6 +6,7 @@ import warp as wp
 
 from . import checks
 from .collision import RESPONSES, PlaneImpacts, PlanePenalty
+from .contacts import BodyContacts, ContactGeometry, ContactPenalty, ParticleShapeContacts
 from .dynamics import Dynamics
 from .guards import Guard, SimulationDiverged
 from .integrators import make_integrator
@@ -26,23 +27,35 @@ def resolve_device(device: str | None) -> str:
     return device
 
 
+def _shape_drawing(shape, origin) -> dict:
+    """The USD drawing fields of a shape (kind, size, points, faces, radius), points relative to ``origin`` [m]."""
+    points = faces = None
+    radius = 0.02
+    if shape.kind == "mesh":
+        points, faces = shape.vertices - origin, shape.faces
+    elif shape.kind == "points":
+        points, radius = shape.positions - origin, shape.radius
+    return {"kind": shape.kind, "size": tuple(shape.size), "points": points, "faces": faces, "radius": radius}
+
+
 def body_spec(index: int, body):
     """The USD BodySpec of one scene body: its shape drawn in the body frame (centre of mass at the origin)."""
     from .stages import BodySpec
 
-    shape, com = body.shape, body.mass.com
-    points = faces = None
-    radius = 0.02
-    if shape.kind == "mesh":
-        points, faces = shape.vertices - com, shape.faces
-    elif shape.kind == "points":
-        points, radius = shape.positions - com, shape.radius
-    return BodySpec(body.name, index, shape.kind, tuple(shape.size), points=points, faces=faces, radius=radius,
-                    color=body.color)
+    return BodySpec(body.name, index, **_shape_drawing(body.shape, body.mass.com), color=body.color)
+
+
+def collider_spec(collider):
+    """The USD ColliderSpec of one scene collider: its shape drawn in the shape frame (no centre-of-mass offset)."""
+    from .stages import ColliderSpec
+
+    return ColliderSpec(collider.name, **_shape_drawing(collider.shape, np.zeros(3)), color=collider.color,
+                        position=tuple(collider.position.tolist()), orientation=tuple(collider.orientation.tolist()))
 
 
 def stage_layout(scene: Scene):
-    """The USD StageLayout of a scene: its particle groups, springs, bodies, planes, cloths and soft bodies.
+    """The USD StageLayout of a scene: its particle groups, springs, bodies, planes, cloths, soft bodies and
+    static colliders.
 
     A cloth's or soft body's particles and springs are drawn as its UsdGeom.Mesh only, not also
     as Points and spring curves."""
@@ -62,7 +75,9 @@ def stage_layout(scene: Scene):
         springs = scene.spring_array("pairs")[drawn] if drawn.any() else None
     bodies = tuple(body_spec(index, body) for index, body in enumerate(scene.bodies))
     meshes = tuple(MeshSpec(m.name, m.start, m.count, m.face_counts, m.face_indices, m.color) for m in scene.meshes)
-    return StageLayout(points_groups=groups, springs=springs, planes=planes, bodies=bodies, meshes=meshes)
+    colliders = tuple(collider_spec(collider) for collider in scene.colliders)
+    return StageLayout(points_groups=groups, springs=springs, planes=planes, bodies=bodies, meshes=meshes,
+                       colliders=colliders)
 
 
 class Simulator:
@@ -72,7 +87,8 @@ class Simulator:
     for CUDA when present, else the CPU; contact: "impulse" (time of impact,
     default) or "penalty" (spring and damper on penetration); penalty_stiffness
     [N/m]; guard: check for non-finite values and speeds above max_speed [m/s]
-    after every step (read every step() and every frame of run()).
+    after every step (read every step() and every frame of run()); contact_margin [m]:
+    the gap at which bodies count as touching (warp_sim.contacts).
 
     ``state`` holds the current State; it is a new object after each step (the
     solver writes into a second state and the two are swapped), so read
@@ -81,7 +97,7 @@ class Simulator:
 
     def __init__(self, scene: Scene, integrator: str = "rk4", device: str | None = None,
                  contact: str = "impulse", penalty_stiffness: float = 1.0e4, guard: bool = True,
-                 max_speed: float = 1.0e4):
+                 max_speed: float = 1.0e4, contact_margin: float = 0.005):
         if not isinstance(scene, Scene):
             raise checks.fail("scene", scene, "expected a warp_sim.Scene")
         if scene.particle_count == 0 and scene.body_count == 0:
@@ -89,12 +105,34 @@ class Simulator:
         contact = checks.choice("contact", contact, RESPONSES)
         stiffness = checks.scalar("penalty_stiffness", penalty_stiffness, low=0.0, low_open=True)
         speed = checks.scalar("max_speed", max_speed, low=0.0, low_open=True)
+        margin = checks.scalar("contact_margin", contact_margin, low=0.0)
         self.model = Model(scene, resolve_device(device))
-        particle_planes = self.model.plane_count > 0 and self.model.particle_count > 0
-        penalty = [PlanePenalty(self.model, stiffness)] if contact == "penalty" and particle_planes else []
-        self.dynamics = Dynamics(self.model, penalty)
+        m = self.model
+        particle_planes = m.plane_count > 0 and m.particle_count > 0
+        penalty = [PlanePenalty(m, stiffness)] if contact == "penalty" and particle_planes else []
+        # bodies collide when there is something to hit; particles are pushed by bodies and colliders
+        colliders = len(scene.colliders)
+        bodies_collide = m.body_count > 0 and (m.plane_count > 0 or colliders > 0 or m.body_count > 1
+                                               or m.particle_count > 0)
+        self.body_contacts = None
+        detection = None
+        if bodies_collide and contact == "impulse":
+            self.body_contacts = BodyContacts(m, margin=margin)
+            geometry, detection = self.body_contacts.geometry, self.body_contacts.detection
+        elif bodies_collide:
+            body_penalty = ContactPenalty(m, stiffness)
+            penalty.append(body_penalty)
+            geometry, detection = body_penalty.detection.geometry, body_penalty.detection
+        elif colliders and m.particle_count:
+            geometry = ContactGeometry(m)
+        self.particle_shapes = None
+        if m.particle_count and (m.body_count or colliders):
+            self.particle_shapes = ParticleShapeContacts(m, geometry, detection)
+        self.dynamics = Dynamics(m, penalty)
         self.integrator = make_integrator(integrator, self.dynamics)
-        self.impacts = PlaneImpacts(self.model) if contact == "impulse" and particle_planes else None
+        if self.body_contacts is not None:
+            self.body_contacts.position_response = self.integrator.position_response
+        self.impacts = PlaneImpacts(m) if contact == "impulse" and particle_planes else None
         self.strain_limiter = None
         if any(mesh.max_stretch is not None for mesh in scene.meshes):
             from .strain import StrainLimiter
@@ -108,8 +146,10 @@ class Simulator:
 
             self.emitters = EmitterPools(self.model, scene)
             self.emitters.initial_births(self.state, 0.0)
-            if self.emitters.touched is not None and self.impacts is not None:
-                self.impacts.touched = self.emitters.touched
+            if self.emitters.touched is not None:
+                for contact_pass in (self.impacts, self.particle_shapes):
+                    if contact_pass is not None:
+                        contact_pass.touched = self.emitters.touched
         self.guard = Guard(self.model, self.dynamics.components, speed) if guard else None
         self.time = 0.0
         self.step_count = 0
@@ -191,8 +231,12 @@ class Simulator:
         self.integrator.step(self.state, self._next, self.time, h)
         if self.strain_limiter is not None:
             self.strain_limiter.apply(self.state, self._next, h)
+        if self.body_contacts is not None:
+            self.body_contacts.apply(self.state, self._next, h)
         if self.impacts is not None:
             self.impacts.apply(self.state, self._next, h)
+        if self.particle_shapes is not None:
+            self.particle_shapes.apply(self._next)
         self.dynamics.post_step(self._next)
         self.state, self._next = self._next, self.state
         if self.emitters is not None:

@@ -28,6 +28,10 @@ are authored at the Sdf level (``Sdf.Layer.SetTimeSample``) inside one
 1000 bodies that measured about 10-13 ms/frame against 20-25 ms for
 ``Usd.Attribute.Set`` (and 30-45 ms when building ``Gf`` values per body).
 
+A static collider (``ColliderSpec``) is a ``UsdGeom.Xform`` at ``/World/Colliders/<name>``
+drawn like a body, but its translate and orient are default values, written once, with no
+time samples.
+
 The stage is built in a hidden temporary file next to the final path, saved
 every ``chunk_frames`` frames, and moved onto the final path by ``close()``
 with ``os.replace``, so the final path never holds a half-written stage. A save
@@ -51,7 +55,7 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdPhysics, Vt
 if TYPE_CHECKING:
     from typing_extensions import Self  # typing.Self needs Python 3.11
 
-__all__ = ["BodySpec", "MeshSpec", "PlaneSpec", "PointsGroup", "StageLayout", "StageWriter"]
+__all__ = ["BodySpec", "ColliderSpec", "MeshSpec", "PlaneSpec", "PointsGroup", "StageLayout", "StageWriter"]
 
 #: USD file extensions accepted by the writer (the format follows the extension).
 USD_EXTENSIONS = (".usd", ".usdc", ".usda")
@@ -114,6 +118,27 @@ class BodySpec:
 
 
 @dataclass(frozen=True)
+class ColliderSpec:
+    """A static collider: an Xform at /World/Colliders/<name>, written once with no time samples.
+
+    ``position`` [m] (the shape frame's origin, world) and ``orientation`` (unit quaternion
+    x, y, z, w) are its ``xformOp:translate`` and ``xformOp:orient`` default values; ``kind``,
+    ``size``, ``points`` and ``faces`` (shape frame), ``radius`` and ``color`` draw its shape
+    as the child ``Geom``, as for BodySpec.
+    """
+
+    name: str
+    kind: str                           # as BodySpec.kind
+    size: tuple = ()                    # [m] as BodySpec.size
+    points: np.ndarray | None = None    # [m] mesh: (V, 3) vertices, shape frame; points: (N, 3) positions
+    faces: np.ndarray | None = None     # mesh: (F, 3) triangle vertex indices
+    radius: float = 0.02                # points: drawn radius [m]
+    color: tuple = (0.45, 0.45, 0.5)
+    position: tuple = (0.0, 0.0, 0.0)          # [m]
+    orientation: tuple = (0.0, 0.0, 0.0, 1.0)  # x, y, z, w
+
+
+@dataclass(frozen=True)
 class MeshSpec:
     """A deforming ``UsdGeom.Mesh`` at /World/Meshes/<name> whose vertices are particles ``start .. start+count-1``.
 
@@ -135,10 +160,11 @@ class MeshSpec:
 
 @dataclass(frozen=True)
 class StageLayout:
-    """What the stage contains: particle groups, spring segments, static planes, rigid bodies, meshes.
+    """What the stage contains: particle groups, spring segments, static planes, rigid bodies, meshes, colliders.
 
     ``springs`` is ``(K, 2)`` global particle indices (or None); ``spring_width``
-    is the drawn curve width in metres; ``meshes``: cloths and soft bodies.
+    is the drawn curve width in metres; ``meshes``: cloths and soft bodies;
+    ``colliders``: static shapes, written once.
     """
 
     points_groups: tuple[PointsGroup, ...] = ()
@@ -147,6 +173,7 @@ class StageLayout:
     planes: tuple[PlaneSpec, ...] = ()
     bodies: tuple[BodySpec, ...] = ()
     meshes: tuple[MeshSpec, ...] = ()
+    colliders: tuple[ColliderSpec, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -463,37 +490,32 @@ BODY_SIZES = {"sphere": (1, "(radius,)"), "box": (3, "half extents (hx, hy, hz)"
 QUAT_NORM_TOLERANCE = 1e-3
 
 
-class _BodyWriter(_PrimWriter):
-    """A rigid body: an Xform with ``xformOp:translate`` (double, metres) and ``xformOp:orient``
-    (float quaternion) sampled per frame, and its shape as a static child gprim ``Geom``."""
+class _ShapeXformWriter(_PrimWriter):
+    """An Xform with ``xformOp:translate`` (double, metres) and ``xformOp:orient`` (float quaternion), and the
+    shape of a BodySpec or ColliderSpec (kind, size, points, faces, radius, color) as its static child gprim
+    ``Geom``; ``noun`` ("body", "collider") names the owner in error messages."""
 
-    sdf_only = True
-
-    def __init__(self, body: BodySpec):
-        kind, label = body.kind, f"BodySpec {body.name!r}"
+    def __init__(self, spec, label: str, noun: str, path: Sdf.Path):
+        kind = spec.kind
         _require(kind in BODY_SIZES, f"{label}: kind must be one of {', '.join(BODY_SIZES)}, got {kind!r}")
-        _require(isinstance(body.index, (int, np.integer)) and not isinstance(body.index, bool) and body.index >= 0,
-                 f"{label}: index must be an integer >= 0, got {body.index!r}")
         count, meaning = BODY_SIZES[kind]
-        size = np.asarray(body.size, dtype=np.float64)
+        size = np.asarray(spec.size, dtype=np.float64)
         _require(size.shape == (count,) and bool(np.all(np.isfinite(size)) and np.all(size > 0)),
-                 f"{label}: size of a {kind} must be {meaning}: {count} finite values > 0 [m], got {body.size!r}")
+                 f"{label}: size of a {kind} must be {meaning}: {count} finite values > 0 [m], got {spec.size!r}")
         shaped = kind in ("mesh", "points")
-        _require((body.points is not None) == shaped,
-                 f"{label}: points are {'required' if shaped else 'not used'} for a {kind} body")
-        _require((body.faces is not None) == (kind == "mesh"),
-                 f"{label}: faces are {'required' if kind == 'mesh' else 'not used'} for a {kind} body")
-        self.kind, self.size, self.color = kind, size, _color(label, body.color)
-        self.index = int(body.index)
-        self.min_bodies = self.index + 1
-        self.path = WORLD_PATH.AppendPath(Sdf.Path(f"Bodies/{_identifier(body.name)}"))
+        _require((spec.points is not None) == shaped,
+                 f"{label}: points are {'required' if shaped else 'not used'} for a {kind} {noun}")
+        _require((spec.faces is not None) == (kind == "mesh"),
+                 f"{label}: faces are {'required' if kind == 'mesh' else 'not used'} for a {kind} {noun}")
+        self.kind, self.size, self.color = kind, size, _color(label, spec.color)
+        self.path = path
         if shaped:
-            points = np.asarray(body.points, dtype=np.float64)
+            points = np.asarray(spec.points, dtype=np.float64)
             _require(points.ndim == 2 and points.shape[1] == 3 and len(points) >= 1 and bool(np.isfinite(points).all()),
                      f"{label}: points must be a finite (N, 3) array with N >= 1 [m], got shape {points.shape}")
             self.points = points
         if kind == "mesh":
-            faces = np.asarray(body.faces)
+            faces = np.asarray(spec.faces)
             _require(faces.ndim == 2 and faces.shape[1] == 3 and len(faces) >= 1
                      and np.issubdtype(faces.dtype, np.integer),
                      f"{label}: faces must be an integer (F, 3) array with F >= 1, got {faces.dtype} {faces.shape}")
@@ -502,9 +524,9 @@ class _BodyWriter(_PrimWriter):
                      f"got indices {int(faces.min())} .. {int(faces.max())}")
             self.faces = faces.astype(np.int32)
         if kind == "points":
-            _require(math.isfinite(body.radius) and body.radius > 0,
-                     f"{label}: radius must be finite and > 0 [m], got {body.radius!r}")
-            self.radius = float(body.radius)
+            _require(math.isfinite(spec.radius) and spec.radius > 0,
+                     f"{label}: radius must be finite and > 0 [m], got {spec.radius!r}")
+            self.radius = float(spec.radius)
         # The child's extent [m] in its own space (before the box's scale op).
         if shaped:
             pad = self.radius if kind == "points" else 0.0
@@ -517,9 +539,8 @@ class _BodyWriter(_PrimWriter):
 
     def define(self, stage: Usd.Stage) -> None:
         xform = UsdGeom.Xform.Define(stage, self.path)
-        self.translate = xform.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble).GetAttr().GetPath()
-        self.orient = xform.AddOrientOp(UsdGeom.XformOp.PrecisionFloat).GetAttr().GetPath()
-        self.layer = stage.GetEditTarget().GetLayer()
+        self.translate_op = xform.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble)
+        self.orient_op = xform.AddOrientOp(UsdGeom.XformOp.PrecisionFloat)
         path, size = self.path.AppendChild("Geom"), self.size
         if self.kind == "sphere":
             geom = UsdGeom.Sphere.Define(stage, path)
@@ -546,9 +567,53 @@ class _BodyWriter(_PrimWriter):
         geom.CreateExtentAttr(_extent(self.lo[None], self.hi[None]))
         geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set(_vec3f(self.color))
 
+
+class _BodyWriter(_ShapeXformWriter):
+    """A rigid body at /World/Bodies/<name>: translate (centre of mass) and orient sampled per frame."""
+
+    sdf_only = True
+
+    def __init__(self, body: BodySpec):
+        label = f"BodySpec {body.name!r}"
+        _require(isinstance(body.index, (int, np.integer)) and not isinstance(body.index, bool) and body.index >= 0,
+                 f"{label}: index must be an integer >= 0, got {body.index!r}")
+        super().__init__(body, label, "body", WORLD_PATH.AppendPath(Sdf.Path(f"Bodies/{_identifier(body.name)}")))
+        self.index = int(body.index)
+        self.min_bodies = self.index + 1
+
+    def define(self, stage: Usd.Stage) -> None:
+        super().define(stage)
+        self.translate = self.translate_op.GetAttr().GetPath()
+        self.orient = self.orient_op.GetAttr().GetPath()
+        self.layer = stage.GetEditTarget().GetLayer()
+
     def write(self, frame: _Frame) -> None:
         self.layer.SetTimeSample(self.translate, frame.time, frame.body_x[self.index])
         self.layer.SetTimeSample(self.orient, frame.time, frame.body_q[self.index])
+
+
+class _ColliderWriter(_ShapeXformWriter):
+    """A static collider at /World/Colliders/<name>: translate and orient authored once, no time samples."""
+
+    def __init__(self, collider: ColliderSpec):
+        label = f"ColliderSpec {collider.name!r}"
+        super().__init__(collider, label, "collider",
+                         WORLD_PATH.AppendPath(Sdf.Path(f"Colliders/{_identifier(collider.name)}")))
+        position = np.asarray(collider.position, dtype=np.float64)
+        _require(position.shape == (3,) and bool(np.isfinite(position).all()),
+                 f"{label}: position must be 3 finite floats [m], got {collider.position!r}")
+        q = np.asarray(collider.orientation, dtype=np.float64)
+        norm = float(np.linalg.norm(q)) if q.shape == (4,) else math.nan
+        _require(abs(norm - 1.0) <= QUAT_NORM_TOLERANCE,
+                 f"{label}: orientation must be a unit quaternion (x, y, z, w) (norm within {QUAT_NORM_TOLERANCE} "
+                 f"of 1), got {collider.orientation!r}")
+        self.position, self.orientation = position, q / norm
+
+    def define(self, stage: Usd.Stage) -> None:
+        super().define(stage)
+        x, y, z, w = self.orientation.tolist()
+        self.translate_op.Set(Gf.Vec3d(*self.position.tolist()))
+        self.orient_op.Set(Gf.Quatf(w, x, y, z))
 
 
 def _prim_writers(layout: StageLayout) -> list[_PrimWriter]:
@@ -558,6 +623,7 @@ def _prim_writers(layout: StageLayout) -> list[_PrimWriter]:
         writers.append(_SpringsWriter(layout.springs, layout.spring_width))
     writers += [_PlaneWriter(p) for p in layout.planes]
     writers += [_BodyWriter(b) for b in layout.bodies]
+    writers += [_ColliderWriter(c) for c in layout.colliders]
     writers += [_MeshWriter(m) for m in layout.meshes]
     dupes = sorted(str(p) for p, n in Counter(w.path for w in writers).items() if n > 1)  # linear: thousands of bodies
     _require(not dupes, f"layout names must be unique after Tf.MakeValidIdentifier; duplicated prim paths: {dupes}")
