@@ -923,13 +923,10 @@ def push_particle_from(geoms: Geoms, g: int, body_x: wp.array(dtype=Any), body_q
                        body_inv_inertia: wp.array(dtype=Any), x: wp.array(dtype=Any), v: wp.array(dtype=Any),
                        r: Any, particle_restitution: wp.array(dtype=Any), particle_friction: wp.array(dtype=Any),
                        i: int, touched_out: wp.array(dtype=wp.int32), zero: Any, one: Any):
-    pose_x = type(x[i])(geoms.x[g])
-    pose_q = type(body_q[0])(geoms.q[g])
-    surface_v = x[i] * zero
-    if is_body(g, geoms.body_count):
-        pose_x = body_x[g]
-        pose_q = wp.normalize(body_q[g])
-    local = wp.vec3f(wp.quat_rotate_inv(pose_q, x[i] - pose_x)) + geoms.com[g]
+    body = is_body(g, geoms.body_count)
+    local = wp.quat_rotate_inv(geoms.q[g], wp.vec3f(x[i]) - geoms.x[g]) + geoms.com[g]   # statics: float32 pose
+    if body:
+        local = wp.vec3f(wp.quat_rotate_inv(wp.normalize(body_q[g]), x[i] - body_x[g])) + geoms.com[g]
     if wp.length(local - geoms.com[g]) > geoms.bound[g] + wp.float32(r):
         return
     d, n_local = shape_distance(geoms.kind[g], geoms.size[g], geoms.mesh[g], geoms.samples, geoms.sample_start[g],
@@ -937,10 +934,13 @@ def push_particle_from(geoms: Geoms, g: int, body_x: wp.array(dtype=Any), body_q
     depth = r - type(r)(d)
     if depth <= zero:
         return
-    n = wp.quat_rotate(pose_q, type(x[i])(n_local))
-    if is_body(g, geoms.body_count):
-        surface_v = state_point_velocity(pose_x, pose_q, body_P[g], body_L[g], body_inv_mass[g],
-                                         body_inv_inertia[g], wp.quat_rotate_inv(pose_q, x[i] - pose_x))
+    n = type(x[i])(wp.quat_rotate(geoms.q[g], n_local))
+    surface_v = x[i] * zero
+    if body:
+        q = wp.normalize(body_q[g])
+        n = wp.quat_rotate(q, type(x[i])(n_local))
+        surface_v = state_point_velocity(body_x[g], q, body_P[g], body_L[g], body_inv_mass[g], body_inv_inertia[g],
+                                         wp.quat_rotate_inv(q, x[i] - body_x[g]))
     x[i] = x[i] + n * depth
     rel = v[i] - surface_v
     vn = wp.dot(rel, n)
