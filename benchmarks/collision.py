@@ -329,7 +329,8 @@ def main(argv=None) -> None:
     parser.add_argument("--steps", type=int, default=60, help="timed steps")
     parser.add_argument("--profile-steps", type=int, default=10,
                         help="steps profiled per kernel after the timed ones (0: none)")
-    parser.add_argument("--json", "--out", dest="out", type=Path, default=Path("benchmarks/results/collision.json"))
+    parser.add_argument("--json", "--out", dest="out", metavar="PATH", type=Path,
+                        default=Path("benchmarks/results/collision.json"), help="results (JSON)")
     args = parser.parse_args(argv)
     if min(args.sizes) < 2 or args.steps < 1 or args.settle < 0 or args.profile_steps < 0:
         parser.error("--sizes must be >= 2, --steps >= 1, --settle and --profile-steps >= 0")

@@ -196,6 +196,8 @@ class _Buffer:
         b.normal = wp.empty(size, dtype=wp.vec3f, device=self.device)
         b.point1 = wp.empty(size, dtype=wp.vec3f, device=self.device)
         b.point2 = wp.empty(size, dtype=wp.vec3f, device=self.device)
+        b.radius1 = wp.empty(size, dtype=wp.float32, device=self.device)
+        b.radius2 = wp.empty(size, dtype=wp.float32, device=self.device)
         self.buffer = b
 
     def fill(self, launch) -> int:
@@ -212,7 +214,7 @@ class _Buffer:
     @property
     def nbytes(self) -> int:
         b = self.buffer
-        return sum(a.capacity for a in (b.ids, b.normal, b.point1, b.point2))
+        return sum(a.capacity for a in (b.ids, b.normal, b.point1, b.point2, b.radius1, b.radius2))
 
 
 class Detection:
@@ -298,7 +300,8 @@ class BodyContacts:
         self.anchor1, self.anchor2, self.normal, self.impulse_t = (
             wp.zeros(capacity, dtype=vec3, device=m.device) for _ in range(4))
         self.impact_time, self.after_impact, self.min_normal_speed, self.restitution, self.friction, \
-            self.impulse_n = (wp.zeros(capacity, dtype=scalar, device=m.device) for _ in range(6))
+            self.impulse_n, self.rounding1, self.rounding2 = (
+                wp.zeros(capacity, dtype=scalar, device=m.device) for _ in range(8))
         slots = 1 << int(2 * capacity - 1).bit_length()   # a power of two, at least twice the contacts
         self.table_used = wp.zeros(slots, dtype=wp.int32, device=m.device)
         self.table_keys = wp.zeros(slots, dtype=wp.vec2i, device=m.device)
@@ -340,7 +343,8 @@ class BodyContacts:
             c, self.geometry.geoms, d.planes_restitution, d.planes_friction,
             start.body_x, start.body_q, start.body_P, start.body_L, end.body_x, end.body_q, end.body_P, end.body_L,
             m.body_inv_mass, m.body_inv_inertia, T(h), T(bounce), T(self.slop),
-            self.anchor1, self.anchor2, self.normal, self.impact_time, self.after_impact, self.min_normal_speed,
+            self.anchor1, self.anchor2, self.rounding1, self.rounding2, self.normal, self.impact_time,
+            self.after_impact, self.min_normal_speed,
             self.restitution,
             self.friction, self.impulse_n, self.impulse_t, self.body_impact])
         geoms = self.geometry.geoms
@@ -350,13 +354,15 @@ class BodyContacts:
         collisions, contacts, positions = self.sweeps
         m.launch(contact_kernels.collision_sweeps, 1, [
             count, collisions, c.ids, B, T(h), start.body_x, start.body_q, end.body_x, end.body_q, self.anchor1,
-            self.anchor2, self.normal, self.impact_time, self.after_impact, self.restitution, self.friction,
+            self.anchor2, self.rounding1, self.rounding2, self.normal, self.impact_time, self.after_impact,
+            self.restitution, self.friction,
             m.body_inv_mass, self.inv_inertia_world, T(bounce),
             self.v, self.w])
         wp.copy(self.v_collided, self.v)
         wp.copy(self.w_collided, self.w)
         m.launch(contact_kernels.contact_sweeps, 1, [
-            count, contacts, c.ids, B, end.body_q, self.anchor1, self.anchor2, self.normal, self.min_normal_speed,
+            count, contacts, c.ids, B, end.body_q, self.anchor1, self.anchor2, self.rounding1, self.rounding2,
+            self.normal, self.min_normal_speed,
             self.friction, m.body_inv_mass, self.inv_inertia_world, self.impulse_n, self.impulse_t, self.v, self.w])
         self.table_used.zero_()
         m.launch(contact_kernels.remember_impulses, count, [geoms, c.ids, self.anchor1, self.impulse_n,
@@ -366,7 +372,8 @@ class BodyContacts:
             self.v_collided, self.w_collided, self.v, self.w, self.body_impact, end.body_x, end.body_q, end.body_P,
             end.body_L])
         m.launch(contact_kernels.project_positions, 1, [
-            count, positions, c.ids, B, self.anchor1, self.anchor2, self.normal, m.body_inv_mass,
+            count, positions, c.ids, B, self.anchor1, self.anchor2, self.rounding1, self.rounding2, self.normal,
+            m.body_inv_mass,
             m.body_inv_inertia, T(self.slop), end.body_x, end.body_q])
 
 

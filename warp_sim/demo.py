@@ -1,5 +1,6 @@
 """The demo scene: particles bouncing on the ground, a spring chain hanging from a pinned particle,
-rigid bodies thrown tumbling into the air, a particle fountain, and a flag in the wind."""
+rigid bodies thrown tumbling into the air, a pile of boxes and spheres, a particle fountain, a flag
+in the wind and a cloth draped over a sphere."""
 from __future__ import annotations
 
 import numpy as np
@@ -10,9 +11,11 @@ from .emitters import Ramp
 from .scene import Scene
 
 WIND = (3.0, 0.0, 1.0)   # [m/s]: blows the flag (and drags everything a little)
+PILE_ORIGIN = (-2.0, 0.0, 2.5)   # [m]: where the pile of boxes and spheres falls
+DRAPE_SPHERE = ((0.5, 0.35, 3.0), 0.35)   # centre [m] and radius [m] of the static sphere the cloth falls on
 
-# Rigid bodies do not collide yet, so they are thrown high enough (19 m/s, a 3.9 s flight) to be
-# in the air for the whole default 4 s demo. The slab spins about its intermediate axis and flips.
+# Thrown high (19 m/s, a 3.9 s flight), they tumble in the air for most of the default 4 s demo and
+# land at its end. The slab spins about its intermediate axis and flips.
 THROWN_BODIES = (
     ("slab", shapes.Box((0.05, 0.15, 0.3)), (-3.0, 0.5, -1.0), (0.4, 19.0, 0.2), (0.05, 12.0, 0.05)),
     ("ball", shapes.Sphere(0.15), (-3.0, 0.5, 0.0), (0.6, 19.2, 0.0), (4.0, 0.0, 2.0)),
@@ -23,10 +26,11 @@ THROWN_BODIES = (
 
 def demo_scene(particles: int = 200, chain_links: int = 20, seed: int = 0, fountain_rate: float = 400.0) -> Scene:
     """A ground plane, `particles` balls thrown up from a box, a chain of `chain_links` springs
-    hanging from a pinned particle at (2.5, 3, 0), kicked sideways, and five rigid bodies (a slab,
-    a ball, a capsule, a drum and a torus mesh) thrown spinning into the air, a fountain
-    emitting `fountain_rate` droplets per second that fade as they age, and a flag pinned at
-    two corners blowing in the wind."""
+    hanging from a pinned particle at (2.5, 3, 0), kicked sideways, five rigid bodies (a slab,
+    a ball, a capsule, a drum and a torus mesh) thrown spinning into the air, a pile of boxes
+    and spheres falling onto the ground and each other, a fountain emitting `fountain_rate`
+    droplets per second that fade as they age, a flag pinned at two corners blowing in the
+    wind, and a cloth falling onto a sphere and draping over it."""
     rng = np.random.default_rng(seed)
     scene = Scene(gravity=(0.0, -9.81, 0.0), drag=0.001, wind=WIND)
     scene.add_ground(restitution=0.7, friction=0.3)
@@ -51,9 +55,39 @@ def demo_scene(particles: int = 200, chain_links: int = 20, seed: int = 0, fount
                       color=Ramp([0.0, 1.0], [(0.6, 0.8, 1.0), (1.0, 1.0, 1.0)]),
                       opacity=Ramp([0.0, 0.7, 1.0], [1.0, 0.8, 0.0]), restitution=0.3, friction=0.2, seed=seed,
                       name="fountain")
+    add_pile(scene, rng)
+    # a cloth dropped flat onto a static sphere, draping over it
+    centre, radius = DRAPE_SPHERE
+    scene.add_collider(shapes.Sphere(radius), position=centre, restitution=0.0, friction=0.6, name="drape_sphere",
+                       color=(0.4, 0.4, 0.5))
+    scene.add_cloth_grid(resolution=(16, 16), size=(1.2, 1.2), position=(centre[0], 0.9, centre[2]), density=0.2,
+                         orientation=(-0.7071067811865476, 0.0, 0.0, 0.7071067811865476),   # lying flat
+                         stiffness=(30.0, 15.0, 1.5), damping=(0.02, 0.01, 0.002), max_stretch=0.1,
+                         radius=0.01, friction=0.6, name="drape", color=(0.3, 0.4, 0.85))
     # a flag pinned at its two top corners, blowing in the wind: soft springs held to 10 % stretch
     scene.add_cloth_grid(resolution=(16, 12), size=(1.5, 1.0), position=(2.5, 1.2, 2.0), density=0.2,
                          orientation=(0.0, 0.7071067811865476, 0.0, 0.7071067811865476),   # facing the wind
                          stiffness=(40.0, 20.0, 2.0), damping=(0.02, 0.01, 0.002), pinned=["top_corners"],
                          drag=1.2, lift=0.4, max_stretch=0.1, name="flag", color=(0.85, 0.2, 0.2))
     return scene
+
+
+def add_pile(scene: Scene, rng: np.random.Generator, layers: int = 3) -> list[int]:
+    """Add a loose pile over PILE_ORIGIN: ``layers`` layers of 2 x 2 boxes and spheres (alternating), each
+    a little turned and offset, falling from just above the ground; returns their body indices."""
+    bodies = []
+    ox, _, oz = PILE_ORIGIN
+    for layer in range(layers):
+        for k, (dx, dz) in enumerate(((-0.2, -0.2), (0.2, -0.2), (-0.2, 0.2), (0.2, 0.2))):
+            position = (ox + dx + rng.uniform(-0.04, 0.04), 0.2 + 0.3 * layer, oz + dz + rng.uniform(-0.04, 0.04))
+            if (k + layer) % 2 == 0:
+                angle = rng.uniform(0.0, np.pi)
+                shape = shapes.Box((0.12, 0.08, 0.1))
+                turn = (0.0, np.sin(angle / 2.0), 0.0, np.cos(angle / 2.0))
+                color = (0.75, 0.45, 0.3)
+            else:
+                shape, turn, color = shapes.Sphere(0.1), (0.0, 0.0, 0.0, 1.0), (0.3, 0.55, 0.8)
+            bodies.append(scene.add_rigid_body(shape, density=400.0, position=position, orientation=turn,
+                                               restitution=0.3, friction=0.6, name=f"pile{len(bodies)}",
+                                               color=color))
+    return bodies

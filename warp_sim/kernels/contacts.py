@@ -4,9 +4,11 @@ Geometry is queried at the start of a step in float32 (``Geoms``, ``ContactBuffe
 the response works in the state's precision on the solver's end-of-step state.
 
 A contact pushes body ``ids[c][0]`` along +n away from ``ids[c][1]``, which is a body
-(< body_count), a static collider (>= body_count) or a plane (-1 - k); point1 and
-point2 [m] are where the two surfaces are closest, so the gap is n . (point1 - point2)
-(negative when they overlap).
+(< body_count), a static collider (>= body_count) or a plane (-1 - k). point1 and point2
+[m] are points of each body, and radius1 and radius2 [m] how far each surface lies from
+them along the normal: the gap is n . (point1 - point2) - radius1 - radius2 (negative
+when they overlap). A rounded part (a sphere, a capsule's end) is its centre and radius,
+so its contact point stays under it as it rolls; elsewhere the radius is 0.
 """
 from typing import Any
 
@@ -58,6 +60,8 @@ class ContactBuffer:
     normal: wp.array(dtype=wp.vec3f)
     point1: wp.array(dtype=wp.vec3f)
     point2: wp.array(dtype=wp.vec3f)
+    radius1: wp.array(dtype=wp.float32)
+    radius2: wp.array(dtype=wp.float32)
 
 
 @wp.func
@@ -66,25 +70,32 @@ def is_body(g: int, body_count: int):
 
 
 @wp.func
-def emit(buf: ContactBuffer, body_count: int, id1: int, id2: int, n: wp.vec3f, p1: wp.vec3f, p2: wp.vec3f):
+def emit(buf: ContactBuffer, body_count: int, id1: int, id2: int, n: wp.vec3f, p1: wp.vec3f, r1: float,
+         p2: wp.vec3f, r2: float):
     """Append a contact pushing id1 along +n away from id2, stored with a body first."""
     a = id1
     b = id2
     nn = n
     pa = p1
     pb = p2
+    ra = r1
+    rb = r2
     if not is_body(a, body_count):
         a = id2
         b = id1
         nn = -n
         pa = p2
         pb = p1
+        ra = r2
+        rb = r1
     slot = wp.atomic_add(buf.count, 0, 1)
     if slot < buf.ids.shape[0]:
         buf.ids[slot] = wp.vec2i(a, b)
         buf.normal[slot] = nn
         buf.point1[slot] = pa
         buf.point2[slot] = pb
+        buf.radius1[slot] = ra
+        buf.radius2[slot] = rb
 
 
 @wp.func
@@ -173,8 +184,7 @@ def samples_against_plane(geoms: Geoms, a: int, plane: int, n: wp.vec3f, offset:
         p = sample_world(geoms, a, k)
         gap = wp.dot(n, p) - offset - r
         if gap < margin:
-            on_a = p - n * r
-            emit(buf, geoms.body_count, a, -1 - plane, n, on_a, on_a - n * gap)
+            emit(buf, geoms.body_count, a, -1 - plane, n, p, r, p - n * (gap + r), 0.0)
 
 
 @wp.func
@@ -185,7 +195,10 @@ def samples_against_shape(geoms: Geoms, a: int, b: int, margin: float, buf: Cont
         p = sample_world(geoms, a, k)
         d, n = distance_to(geoms, b, p, geoms.bound[b] + margin + r)
         if d - r < margin:
-            emit(buf, geoms.body_count, a, b, n, p - n * r, p - n * d)
+            rb = float(0.0)   # a sphere's side of the contact is its centre and radius too
+            if geoms.kind[b] == SPHERE:
+                rb = geoms.size[b][0]
+            emit(buf, geoms.body_count, a, b, n, p, r, p - n * (d + rb), rb)
 
 
 @wp.func
@@ -205,7 +218,7 @@ def mesh_vertices_against_shape(geoms: Geoms, m: int, a: int, margin: float, buf
                 p = mesh.points[v] + geoms.x[m]
                 d, n = distance_to(geoms, a, p, extent)
                 if d < margin:
-                    emit(buf, geoms.body_count, m, a, n, p, p - n * d)
+                    emit(buf, geoms.body_count, m, a, n, p, 0.0, p - n * d, 0.0)
 
 
 @wp.func
@@ -283,7 +296,7 @@ def box_face_contacts(geoms: Geoms, ref: int, inc: int, face_axis: int, margin: 
         p = polygon[c]
         gap = wp.dot(p - centre, n)
         if gap < margin:
-            emit(buf, geoms.body_count, inc, ref, n, p, p - n * gap)
+            emit(buf, geoms.body_count, inc, ref, n, p, 0.0, p - n * gap, 0.0)
 
 
 @wp.func
@@ -342,7 +355,7 @@ def box_box(geoms: Geoms, a: int, b: int, margin: float, buf: ContactBuffer):
     da = box_axis(geoms, a, edge_i) * geoms.size[a][edge_i]
     db = box_axis(geoms, b, edge_j) * geoms.size[b][edge_j]
     pa, pb = closest_on_segments(ca - da, ca + da, cb - db, cb + db)
-    emit(buf, geoms.body_count, a, b, -L, pa, pb)
+    emit(buf, geoms.body_count, a, b, -L, pa, 0.0, pb, 0.0)
 
 
 @wp.kernel
@@ -390,15 +403,15 @@ def point_velocity(v: Any, w: Any, r: Any):
 
 
 @wp.func
-def state_point_velocity(x: Any, q: Any, P: Any, L: Any, inv_mass: Any, inv_inertia: Any, anchor: Any):
-    """Velocity [m/s] of the body point at body-frame offset ``anchor`` from the centre of mass."""
-    r = wp.quat_rotate(q, anchor)
+def state_point_velocity(q: Any, P: Any, L: Any, inv_mass: Any, inv_inertia: Any, r: Any):
+    """Velocity [m/s] of the body point at world offset r [m] from the centre of mass."""
     return point_velocity(P * inv_mass, angular_velocity(q, inv_inertia, L), r)
 
 
 @wp.func
-def lever(q: wp.array(dtype=Any), anchor: Any, i: int):
-    return wp.quat_rotate(wp.normalize(q[i]), anchor)
+def lever(q: Any, anchor: Any, n: Any, rounding: Any):
+    """World offset [m] from a centre of mass to a contact: the anchor turned by q, then ``rounding`` along n."""
+    return wp.quat_rotate(wp.normalize(q), anchor) + n * rounding
 
 
 @wp.func
@@ -428,6 +441,8 @@ def prepare_contacts(
     slop: Any,
     anchor1: wp.array(dtype=Any),
     anchor2: wp.array(dtype=Any),
+    rounding1: wp.array(dtype=Any),
+    rounding2: wp.array(dtype=Any),
     normal: wp.array(dtype=Any),
     impact_time: wp.array(dtype=Any),
     after_impact: wp.array(dtype=Any),
@@ -438,7 +453,8 @@ def prepare_contacts(
     impulse_t: wp.array(dtype=Any),
     body_impact: wp.array(dtype=Any),
 ):
-    """Per contact: anchors in the body frames, the time of impact within the step, materials.
+    """Per contact: anchors in the body frames (rounding1 = -radius1 and rounding2 = radius2 along n from
+    them to the surfaces), the time of impact within the step, materials.
 
     Over the step the gap follows d(t) = d0 + vn t + an t^2 / 2 with vn the normal relative
     velocity at the start and an the normal relative acceleration the solver produced; the
@@ -455,25 +471,28 @@ def prepare_contacts(
     p1 = type(n)(contacts.point1[c])
     p2 = type(n)(contacts.point2[c])
     dynamic = is_body(j, geoms.body_count)
+    round1 = -type(h)(contacts.radius1[c])
+    round2 = type(h)(contacts.radius2[c])
     a1 = wp.quat_rotate_inv(wp.normalize(q_start[i]), p1 - x_start[i])
     a2 = p2
-    vn_start = wp.dot(n, state_point_velocity(x_start[i], q_start[i], P_start[i], L_start[i], inv_mass[i],
-                                              inv_inertia[i], a1))
-    gap_end = wp.dot(n, x_end[i] + lever(q_end, a1, i) - p2)
-    e = zero
-    mu = zero
+    vn_start = wp.dot(n, state_point_velocity(q_start[i], P_start[i], L_start[i], inv_mass[i], inv_inertia[i],
+                                              lever(q_start[i], a1, n, round1)))
+    end2 = p2 + n * round2
     if dynamic:
         a2 = wp.quat_rotate_inv(wp.normalize(q_start[j]), p2 - x_start[j])
-        vn_start -= wp.dot(n, state_point_velocity(x_start[j], q_start[j], P_start[j], L_start[j], inv_mass[j],
-                                                   inv_inertia[j], a2))
-        gap_end = wp.dot(n, x_end[i] + lever(q_end, a1, i) - x_end[j] - lever(q_end, a2, j))
+        vn_start -= wp.dot(n, state_point_velocity(q_start[j], P_start[j], L_start[j], inv_mass[j], inv_inertia[j],
+                                                   lever(q_start[j], a2, n, round2)))
+        end2 = x_end[j] + lever(q_end[j], a2, n, round2)
+    gap_end = wp.dot(n, x_end[i] + lever(q_end[i], a1, n, round1) - end2)
+    e = zero
+    mu = zero
     if j < 0:
         e = type(h)(0.5 * (geoms.restitution[i] + plane_restitution[-1 - j]))
         mu = type(h)(0.5 * (geoms.friction[i] + plane_friction[-1 - j]))
     else:
         e = type(h)(0.5 * (geoms.restitution[i] + geoms.restitution[j]))
         mu = type(h)(0.5 * (geoms.friction[i] + geoms.friction[j]))
-    gap = wp.dot(n, p1 - p2)
+    gap = wp.dot(n, p1 - p2) + round1 - round2
     # the normal acceleration from forces: the change of the centres' velocities (rotation alone is kinematic)
     dv = (P_end[i] - P_start[i]) * inv_mass[i]
     if dynamic:
@@ -488,6 +507,8 @@ def prepare_contacts(
         t = zero
     anchor1[c] = a1
     anchor2[c] = a2
+    rounding1[c] = round1
+    rounding2[c] = round2
     normal[c] = n
     impact_time[c] = t
     # resting contact: no approach at the end of the step where it closes or touches; elsewhere (speculative)
@@ -564,11 +585,13 @@ def pair_mass(ids: wp.vec2i, body_count: int, inv_mass: wp.array(dtype=Any),
 
 
 @wp.func
-def levers(ids: wp.vec2i, body_count: int, q: wp.array(dtype=Any), a1: Any, a2: Any):
+def levers(ids: wp.vec2i, body_count: int, q: wp.array(dtype=Any), a1: Any, a2: Any, n: Any, round1: Any,
+           round2: Any):
+    """World offsets [m] from the two centres of mass to the contact's surface points (zero for a static side)."""
     r2 = a2 * type(a2[0])(0.0)
     if is_body(ids[1], body_count):
-        r2 = lever(q, a2, ids[1])
-    return lever(q, a1, ids[0]), r2
+        r2 = lever(q[ids[1]], a2, n, round2)
+    return lever(q[ids[0]], a1, n, round1), r2
 
 
 @wp.func
@@ -586,18 +609,19 @@ def friction_impulse(ids: wp.vec2i, body_count: int, inv_mass: wp.array(dtype=An
 
 @wp.func
 def impact_levers(ids: wp.vec2i, body_count: int, x_start: wp.array(dtype=Any), q_start: wp.array(dtype=Any),
-                  x_end: wp.array(dtype=Any), q_end: wp.array(dtype=Any), fraction: Any, a1: Any, a2: Any):
-    """Lever arms [m] from each centre to one point, midway between the two anchors, with the poses
+                  x_end: wp.array(dtype=Any), q_end: wp.array(dtype=Any), fraction: Any, a1: Any, a2: Any, n: Any,
+                  round1: Any, round2: Any):
+    """Lever arms [m] from each centre to one point, midway between the two surface points, with the poses
     interpolated to the time of impact: equal and opposite impulses there keep the pair's angular momentum."""
     i = ids[0]
     j = ids[1]
     x1 = x_start[i] + (x_end[i] - x_start[i]) * fraction
-    p1 = x1 + wp.quat_rotate(wp.normalize(q_start[i] + (q_end[i] - q_start[i]) * fraction), a1)
-    p2 = a2
+    p1 = x1 + lever(q_start[i] + (q_end[i] - q_start[i]) * fraction, a1, n, round1)
+    p2 = a2 + n * round2
     x2 = a2
     if is_body(j, body_count):
         x2 = x_start[j] + (x_end[j] - x_start[j]) * fraction
-        p2 = x2 + wp.quat_rotate(wp.normalize(q_start[j] + (q_end[j] - q_start[j]) * fraction), a2)
+        p2 = x2 + lever(q_start[j] + (q_end[j] - q_start[j]) * fraction, a2, n, round2)
     point = (p1 + p2) * type(fraction)(0.5)
     return point - x1, point - x2
 
@@ -615,6 +639,8 @@ def collision_sweeps(
     q: wp.array(dtype=Any),
     anchor1: wp.array(dtype=Any),
     anchor2: wp.array(dtype=Any),
+    rounding1: wp.array(dtype=Any),
+    rounding2: wp.array(dtype=Any),
     normal: wp.array(dtype=Any),
     impact_time: wp.array(dtype=Any),
     after_impact: wp.array(dtype=Any),
@@ -636,7 +662,7 @@ def collision_sweeps(
                 pair = ids[c]
                 n = normal[c]
                 r1, r2 = impact_levers(pair, body_count, x_start, q_start, x, q, impact_time[c] / h, anchor1[c],
-                                       anchor2[c])
+                                       anchor2[c], n, rounding1[c], rounding2[c])
                 rel = relative_velocity(pair, body_count, v, w, r1, r2)
                 approach = wp.dot(rel, n) - after_impact[c]
                 if approach < -bounce_speed:
@@ -659,6 +685,8 @@ def contact_sweeps(
     q: wp.array(dtype=Any),
     anchor1: wp.array(dtype=Any),
     anchor2: wp.array(dtype=Any),
+    rounding1: wp.array(dtype=Any),
+    rounding2: wp.array(dtype=Any),
     normal: wp.array(dtype=Any),
     min_normal_speed: wp.array(dtype=Any),
     friction: wp.array(dtype=Any),
@@ -676,14 +704,14 @@ def contact_sweeps(
     zero = type(inv_mass[0])(0.0)
     for c in range(count):   # warm start: last step's impulses of the same contacts
         pair = ids[c]
-        r1, r2 = levers(pair, body_count, q, anchor1[c], anchor2[c])
+        r1, r2 = levers(pair, body_count, q, anchor1[c], anchor2[c], normal[c], rounding1[c], rounding2[c])
         apply_pair_impulse(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2,
                            normal[c] * impulse_n[c] + impulse_t[c])
     for _sweep in range(sweeps):
         for c in range(count):
             pair = ids[c]
             n = normal[c]
-            r1, r2 = levers(pair, body_count, q, anchor1[c], anchor2[c])
+            r1, r2 = levers(pair, body_count, q, anchor1[c], anchor2[c], n, rounding1[c], rounding2[c])
             rel = relative_velocity(pair, body_count, v, w, r1, r2)
             k = pair_mass(pair, body_count, inv_mass, inv_inertia_world, r1, r2, n)
             old = impulse_n[c]
@@ -836,6 +864,8 @@ def project_positions(
     body_count: int,
     anchor1: wp.array(dtype=Any),
     anchor2: wp.array(dtype=Any),
+    rounding1: wp.array(dtype=Any),
+    rounding2: wp.array(dtype=Any),
     normal: wp.array(dtype=Any),
     inv_mass: wp.array(dtype=Any),
     inv_inertia: wp.array(dtype=Any),
@@ -852,8 +882,8 @@ def project_positions(
             i = pair[0]
             j = pair[1]
             n = normal[c]
-            r1, r2 = levers(pair, body_count, q, anchor1[c], anchor2[c])
-            p2 = anchor2[c]
+            r1, r2 = levers(pair, body_count, q, anchor1[c], anchor2[c], n, rounding1[c], rounding2[c])
+            p2 = anchor2[c] + n * rounding2[c]
             if is_body(j, body_count):
                 p2 = x[j] + r2
             depth = -wp.dot(n, x[i] + r1 - p2) - slop
@@ -939,8 +969,8 @@ def push_particle_from(geoms: Geoms, g: int, body_x: wp.array(dtype=Any), body_q
     if body:
         q = wp.normalize(body_q[g])
         n = wp.quat_rotate(q, type(x[i])(n_local))
-        surface_v = state_point_velocity(body_x[g], q, body_P[g], body_L[g], body_inv_mass[g], body_inv_inertia[g],
-                                         wp.quat_rotate_inv(q, x[i] - body_x[g]))
+        surface_v = state_point_velocity(q, body_P[g], body_L[g], body_inv_mass[g], body_inv_inertia[g],
+                                         x[i] - body_x[g])
     x[i] = x[i] + n * depth
     rel = v[i] - surface_v
     vn = wp.dot(rel, n)
@@ -979,14 +1009,13 @@ def penalty_forces(
     j = contacts.ids[c][1]
     zero = type(stiffness)(0.0)
     n = type(x[0])(contacts.normal[c])
-    p1 = type(n)(contacts.point1[c])
-    p2 = type(n)(contacts.point2[c])
+    p1 = type(n)(contacts.point1[c]) - n * type(stiffness)(contacts.radius1[c])   # the surface points
+    p2 = type(n)(contacts.point2[c]) + n * type(stiffness)(contacts.radius2[c])
     depth = -wp.dot(n, p1 - p2)
     if depth <= zero:
         return
     r1 = p1 - x[i]
-    rel = state_point_velocity(x[i], q[i], P[i], L[i], inv_mass[i], inv_inertia[i], wp.quat_rotate_inv(
-        wp.normalize(q[i]), r1))
+    rel = state_point_velocity(q[i], P[i], L[i], inv_mass[i], inv_inertia[i], r1)
     inverse_mass = inv_mass[i]
     dynamic = is_body(j, geoms.body_count)
     r2 = p2 * zero
@@ -994,8 +1023,7 @@ def penalty_forces(
     mu = zero
     if dynamic:
         r2 = p2 - x[j]
-        rel -= state_point_velocity(x[j], q[j], P[j], L[j], inv_mass[j], inv_inertia[j], wp.quat_rotate_inv(
-            wp.normalize(q[j]), r2))
+        rel -= state_point_velocity(q[j], P[j], L[j], inv_mass[j], inv_inertia[j], r2)
         inverse_mass += inv_mass[j]
     if j < 0:
         e = type(stiffness)(0.5 * (geoms.restitution[i] + plane_restitution[-1 - j]))
