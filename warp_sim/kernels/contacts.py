@@ -1048,3 +1048,34 @@ def penalty_forces(
     if dynamic:
         wp.atomic_sub(body_f, j, F)
         wp.atomic_sub(body_t, j, wp.cross(r2, F))
+
+
+# both precisions declared up front: the module then compiles once with every kernel, rather than once per
+# new overload as a simulation first launches each (minutes on a cold cache for this large module)
+_VECTORS = {"x_start", "P_start", "L_start", "x_end", "P_end", "L_end", "anchor1", "anchor2", "normal", "impulse_t",
+            "v", "w", "v_collided", "w_collided", "x", "P", "L", "stored_t", "body_x", "body_P", "body_L", "body_f",
+            "body_t"}
+_QUATERNIONS = {"q_start", "q_end", "q", "body_q"}
+_MATRICES = {"inv_inertia", "inv_inertia_world", "body_inv_inertia"}
+
+
+def _declare_precisions() -> None:
+    kinds = ((wp.float32, wp.vec3f, wp.quatf, wp.mat33f), (wp.float64, wp.vec3d, wp.quatd, wp.mat33d))
+    for kernel in (value for value in list(globals().values()) if isinstance(value, wp.Kernel)):
+        generic = [a for a in kernel.adj.args
+                   if a.type is Any or (isinstance(a.type, wp.array) and a.type.dtype is Any)]
+        if not generic:
+            continue
+        for scalar, vec3, quat, mat33 in kinds:
+            types = {}
+            for arg in generic:
+                if arg.type is Any:
+                    types[arg.label] = scalar
+                else:
+                    dtype = vec3 if arg.label in _VECTORS else quat if arg.label in _QUATERNIONS else \
+                        mat33 if arg.label in _MATRICES else scalar
+                    types[arg.label] = wp.array(dtype=dtype)
+            wp.overload(kernel, types)
+
+
+_declare_precisions()
