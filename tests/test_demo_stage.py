@@ -108,3 +108,25 @@ def test_console_script_help_lists_the_options():
 def test_cli_reports_bad_values_without_a_traceback(tmp_path, capsys):
     assert main(["demo", "--seconds", "-1", "--out", str(tmp_path / "x.usdc"), "--no-progress"]) == 2
     assert "seconds=-1" in capsys.readouterr().err
+
+
+def test_demo_pile_lands_on_the_ground_and_cloth_stays_off_the_sphere(demo_stage):
+    """The pile's spheres never sink into the ground (they rest at their radius, 0.1 m), no box centre falls
+    below half its height, and no vertex of the draped cloth gets inside the static sphere it falls on."""
+    from warp_sim.demo import DRAPE_SPHERE
+
+    stage, _ = demo_stage
+    pile = [prim for prim in stage.GetPrimAtPath("/World/Bodies").GetChildren() if prim.GetName().startswith("pile")]
+    assert len(pile) == 12
+    for prim in pile:
+        translate = UsdGeom.Xformable(prim).GetOrderedXformOps()[0]
+        low = 0.1 if prim.GetChildren()[0].GetTypeName() == "Sphere" else 0.06
+        assert min(translate.Get(t)[1] for t in range(30)) >= low - 1e-3
+    collider = stage.GetPrimAtPath("/World/Colliders/drape_sphere")
+    assert collider.IsValid()
+    assert all(attr.GetNumTimeSamples() == 0 for attr in collider.GetAttributes())
+    centre, radius = DRAPE_SPHERE
+    drape = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Meshes/drape")).GetPointsAttr()
+    for t in range(30):
+        points = np.array(drape.Get(t))
+        assert np.linalg.norm(points - centre, axis=1).min() >= radius + 0.01 - 1e-4
