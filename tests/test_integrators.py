@@ -8,10 +8,12 @@ from helpers import G, oscillator, particle, run_steps
 import warp_sim as ws
 
 EXPECTED_ORDER = {"euler": 1, "midpoint": 2, "rk4": 4, "symplectic_euler": 1, "verlet": 2, "implicit_euler": 1}
+# adaptive solvers: the error follows the tolerance, not the step, so no fixed-step order (tests/test_rk45.py)
+ADAPTIVE = {"rk45"}
 
 
 def test_every_integrator_has_an_expected_order():
-    assert set(EXPECTED_ORDER) == set(ws.INTEGRATORS)
+    assert set(EXPECTED_ORDER) | ADAPTIVE == set(ws.INTEGRATORS)
 
 
 def projectile(integrator, device, T=2.0, h=0.01):

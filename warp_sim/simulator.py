@@ -89,6 +89,12 @@ class Simulator:
     [N/m]; guard: check for non-finite values and speeds above max_speed [m/s]
     after every step (read every step() and every frame of run()); contact_margin [m]:
     the gap at which bodies count as touching (warp_sim.contacts).
+    rtol, atol: the relative and absolute error tolerances of the adaptive integrator "rk45"
+    (warp_sim.integrators.RK45: 4 machine epsilons <= rtol < 1, default 1e-6; atol > 0 in the
+    state's units, default 1e-9); None leaves the default. Giving either to a fixed-step
+    integrator raises ValueError. With "rk45" each ``step(dt)`` lands exactly on t + dt, taking as
+    many internal steps as the tolerance needs (``sim.integrator.accepted``, ``.rejected``,
+    ``.evaluations`` count them), so ``run(..., substeps=1)`` is the natural choice.
 
     ``state`` holds the current State; it is a new object after each step (the
     solver writes into a second state and the two are swapped), so read
@@ -97,7 +103,8 @@ class Simulator:
 
     def __init__(self, scene: Scene, integrator: str = "rk4", device: str | None = None,
                  contact: str = "impulse", penalty_stiffness: float = 1.0e4, guard: bool = True,
-                 max_speed: float = 1.0e4, contact_margin: float = 0.005):
+                 max_speed: float = 1.0e4, contact_margin: float = 0.005, rtol: float | None = None,
+                 atol: float | None = None):
         if not isinstance(scene, Scene):
             raise checks.fail("scene", scene, "expected a warp_sim.Scene")
         if scene.particle_count == 0 and scene.body_count == 0:
@@ -129,7 +136,8 @@ class Simulator:
         if m.particle_count and (m.body_count or colliders):
             self.particle_shapes = ParticleShapeContacts(m, geometry, detection)
         self.dynamics = Dynamics(m, penalty)
-        self.integrator = make_integrator(integrator, self.dynamics)
+        tolerances = {key: value for key, value in (("rtol", rtol), ("atol", atol)) if value is not None}
+        self.integrator = make_integrator(integrator, self.dynamics, **tolerances)
         if self.body_contacts is not None:
             self.body_contacts.position_response = self.integrator.position_response
         self.impacts = PlaneImpacts(m) if contact == "impulse" and particle_planes else None
