@@ -12,7 +12,6 @@ from .shapes import Box, Capsule, Cylinder, MassProperties, MeshShape, PointMass
 from .simulator import Simulator
 
 __version__ = "0.1.0"
-__all__ = ["Scene", "Simulator", "Model", "State", "SimulationDiverged", "AdaptiveStepFailed", "INTEGRATORS", "Shape", "Sphere", "Box",
-           "Capsule", "Cylinder", "MeshShape", "PointMasses", "MassProperties", "Ramp", "Attractor", "Vortex",
-           "Turbulence",
-           "__version__"]
+__all__ = ["Scene", "Simulator", "Model", "State", "SimulationDiverged", "AdaptiveStepFailed", "INTEGRATORS",
+           "Shape", "Sphere", "Box", "Capsule", "Cylinder", "MeshShape", "PointMasses", "MassProperties", "Ramp",
+           "Attractor", "Vortex", "Turbulence", "__version__"]
