@@ -70,9 +70,9 @@ class ImplicitEuler(Partitioned):
     (the absolute threshold it was held to [N s]) and ``last_converged``;
     ``unconverged_solves`` counts the solves that stopped at max_iterations above the threshold.
     """
-    position_response = 1.0
 
     name, order = "implicit_euler", 1
+    position_response = 1.0
 
     def __init__(self, dynamics, tolerance: float = 1.0e-6, max_iterations: int = 200,
                  preconditioner: str = "block_jacobi", warm_start: bool = False, check_every: int = 1,

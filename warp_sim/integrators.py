@@ -43,9 +43,9 @@ class Integrator:
 
 class Euler(Integrator):
     """Explicit Euler: y1 = y0 + h f(t, y0). First order."""
-    position_response = 0.0
 
     name, order = "euler", 1
+    position_response = 0.0
 
     def __init__(self, dynamics):
         super().__init__(dynamics)
@@ -128,9 +128,9 @@ class Partitioned(Integrator):
 class SymplecticEuler(Partitioned):
     """Semi-implicit Euler: velocities from forces at the old positions, then positions
     from the new velocities. First order, symplectic: bounded energy error."""
-    position_response = 1.0
 
     name, order = "symplectic_euler", 1
+    position_response = 1.0
 
     def step(self, state_in, state_out, t, h):
         self.kick(state_in, state_in, state_out, t, h)
