@@ -86,7 +86,7 @@ def load_kernels(device, precision: str, integrators) -> float:
     start = time.perf_counter()
     scene = build_scene(body_parameters(8, seed=1), precision)
     for name in integrators:
-        ws.Simulator(scene, name, device.alias, guard=True).step(DT, steps=2)
+        ws.Simulator(scene, name, device.alias, guard=True, collisions=False).step(DT, steps=2)
     wp.synchronize_device(device)
     return time.perf_counter() - start
 
@@ -101,7 +101,7 @@ def bench_size(n: int, device, args, bandwidth: float) -> dict:
     sims, simulator_s = {}, {}
     for name in args.integrators:
         start = time.perf_counter()
-        sims[name] = ws.Simulator(scene, name, device.alias, guard=True)
+        sims[name] = ws.Simulator(scene, name, device.alias, guard=True, collisions=False)
         simulator_s[name] = time.perf_counter() - start
     print(f"  scene {scene_s:.2f} s, Simulator {min(simulator_s.values()):.2f}..{max(simulator_s.values()):.2f} s",
           flush=True)

@@ -336,6 +336,19 @@ def test_shape_with_nan_is_rejected(make):
         make()
 
 
+def test_collisions_off_leaves_contacts_out():
+    """collisions=False: a free-body scene (a throughput benchmark, ghosts) runs no contact pass at all."""
+    scene = ground_scene()
+    scene.add_rigid_body(ws.Sphere(0.1), position=(0.0, 0.5, 0.0))
+    scene.add_rigid_body(ws.Sphere(0.1), position=(0.0, 0.5, 0.0))
+    sim = ws.Simulator(scene, integrator="verlet", device="cpu", collisions=False)
+    assert sim.body_contacts is None and sim.particle_shapes is None
+    sim.step(H, steps=240)   # 0.5 s: free fall through the ground
+    assert sim.state.body_x.numpy()[:, 1] == pytest.approx(0.5 - 0.5 * G * 0.25, abs=1e-9)
+    with pytest.raises(ValueError, match="collisions"):
+        ws.Simulator(scene, device="cpu", collisions="no")
+
+
 def test_contact_margin_is_checked():
     scene = ground_scene()
     scene.add_rigid_body(ws.Sphere(0.1), position=(0.0, 1.0, 0.0))

@@ -88,7 +88,9 @@ class Simulator:
     default) or "penalty" (spring and damper on penetration); penalty_stiffness
     [N/m]; guard: check for non-finite values and speeds above max_speed [m/s]
     after every step (read every step() and every frame of run()); contact_margin [m]:
-    the gap at which bodies count as touching (warp_sim.contacts).
+    the gap at which bodies count as touching (warp_sim.contacts); collisions: False leaves
+    contacts with bodies and colliders out (bodies pass through each other, colliders and
+    planes, particles through bodies and colliders; particles still meet planes).
     rtol, atol: the relative and absolute error tolerances of the adaptive integrator "rk45"
     (warp_sim.integrators.RK45: 4 machine epsilons <= rtol < 1, default 1e-6; atol > 0 in the
     state's units, default 1e-9); None leaves the default. Giving either to a fixed-step
@@ -104,7 +106,7 @@ class Simulator:
     def __init__(self, scene: Scene, integrator: str = "rk4", device: str | None = None,
                  contact: str = "impulse", penalty_stiffness: float = 1.0e4, guard: bool = True,
                  max_speed: float = 1.0e4, contact_margin: float = 0.005, rtol: float | None = None,
-                 atol: float | None = None):
+                 atol: float | None = None, collisions: bool = True):
         if not isinstance(scene, Scene):
             raise checks.fail("scene", scene, "expected a warp_sim.Scene")
         if scene.particle_count == 0 and scene.body_count == 0:
@@ -118,9 +120,11 @@ class Simulator:
         particle_planes = m.plane_count > 0 and m.particle_count > 0
         penalty = [PlanePenalty(m, stiffness)] if contact == "penalty" and particle_planes else []
         # bodies collide when there is something to hit; particles are pushed by bodies and colliders
-        colliders = len(scene.colliders)
-        bodies_collide = m.body_count > 0 and (m.plane_count > 0 or colliders > 0 or m.body_count > 1
-                                               or m.particle_count > 0)
+        if not isinstance(collisions, bool):
+            raise checks.fail("collisions", collisions, "expected True or False")
+        colliders = len(scene.colliders) if collisions else 0
+        bodies_collide = collisions and m.body_count > 0 and (
+            m.plane_count > 0 or colliders > 0 or m.body_count > 1 or m.particle_count > 0)
         self.body_contacts = None
         detection = None
         if bodies_collide and contact == "impulse":
@@ -133,7 +137,7 @@ class Simulator:
         elif colliders and m.particle_count:
             geometry = ContactGeometry(m)
         self.particle_shapes = None
-        if m.particle_count and (m.body_count or colliders):
+        if m.particle_count and ((m.body_count and collisions) or colliders):
             self.particle_shapes = ParticleShapeContacts(m, geometry, detection)
         self.dynamics = Dynamics(m, penalty)
         tolerances = {key: value for key, value in (("rtol", rtol), ("atol", atol)) if value is not None}
