@@ -119,7 +119,7 @@ def bench_size(n: int, device, args, bandwidth: float) -> dict:
     rows = []
     for name in args.integrators:
         profile = KernelProfile()
-        sim = profile.instrumented(partial(ws.Simulator, scene, name, device.alias, guard=True))
+        sim = profile.instrumented(partial(ws.Simulator, scene, name, device.alias, guard=True, collisions=False))
         sim.step(DT, steps=WARMUP_STEPS)
         profile.stats.clear()
         sim.step(DT, steps=breakdown_steps)
