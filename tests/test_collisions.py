@@ -336,6 +336,35 @@ def test_shape_with_nan_is_rejected(make):
         make()
 
 
+def test_box_dropped_flat_bounces_straight():
+    """Four corners hit at once: solved together, they share the impulse, so the box bounces up without turning
+    (one corner at a time would spin it) and rises to e^2 of its drop (e = 0.5 on e = 0.5)."""
+    scene = ws.Scene(precision="float64")
+    scene.add_ground(restitution=0.5, friction=0.5)
+    scene.add_rigid_body(ws.Box((0.12, 0.08, 0.1)), position=(0.0, 0.4, 0.0), restitution=0.5, friction=0.5)
+    sim = ws.Simulator(scene, integrator="rk4", device="cpu")
+    top, rising = 0.0, False
+    for _ in range(int(0.6 / H)):
+        sim.step(H)
+        y, vy = sim.state.body_x.numpy()[0, 1], speeds(sim)[0][0, 1]
+        if rising and vy <= 0.0 and top == 0.0:
+            top = y + vy * vy / (2.0 * G)
+        rising = vy > 0.0
+    assert top - 0.08 == pytest.approx(0.25 * 0.32, rel=5e-3)
+    assert abs(sim.state.body_q.numpy()[0, 3]) > math.cos(math.radians(0.1) / 2)
+    assert np.linalg.norm(sim.state.body_x.numpy()[0, [0, 2]]) < 1e-6
+
+
+def test_particle_squeezed_under_a_body_stays_on_the_ground():
+    scene = ws.Scene(precision="float32")
+    scene.add_ground()
+    scene.add_particles([[0.05, 0.03, 0.0]], radius=0.03)
+    scene.add_rigid_body(ws.Box((0.12, 0.08, 0.1)), position=(0.0, 0.4, 0.0))
+    sim = ws.Simulator(scene, integrator="symplectic_euler", device="cpu")
+    sim.step(1.0 / 240.0, steps=240)
+    assert sim.state.particle_x.numpy()[0, 1] >= 0.03 - 1e-6
+
+
 def test_collisions_off_leaves_contacts_out():
     """collisions=False: a free-body scene (a throughput benchmark, ghosts) runs no contact pass at all."""
     scene = ground_scene()

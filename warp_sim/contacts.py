@@ -300,8 +300,9 @@ class BodyContacts:
         self.anchor1, self.anchor2, self.normal, self.impulse_t = (
             wp.zeros(capacity, dtype=vec3, device=m.device) for _ in range(4))
         self.impact_time, self.after_impact, self.min_normal_speed, self.restitution, self.friction, \
-            self.impulse_n, self.rounding1, self.rounding2 = (
-                wp.zeros(capacity, dtype=scalar, device=m.device) for _ in range(8))
+            self.impulse_n, self.rounding1, self.rounding2, self.target, self.collision_n = (
+                wp.zeros(capacity, dtype=scalar, device=m.device) for _ in range(10))
+        self.collision_t = wp.zeros(capacity, dtype=vec3, device=m.device)
         slots = 1 << int(2 * capacity - 1).bit_length()   # a power of two, at least twice the contacts
         self.table_used = wp.zeros(slots, dtype=wp.int32, device=m.device)
         self.table_keys = wp.zeros(slots, dtype=wp.vec2i, device=m.device)
@@ -356,7 +357,7 @@ class BodyContacts:
             count, collisions, c.ids, B, T(h), start.body_x, start.body_q, end.body_x, end.body_q, self.anchor1,
             self.anchor2, self.rounding1, self.rounding2, self.normal, self.impact_time, self.after_impact,
             self.restitution, self.friction,
-            m.body_inv_mass, self.inv_inertia_world, T(bounce),
+            m.body_inv_mass, self.inv_inertia_world, T(bounce), self.target, self.collision_n, self.collision_t,
             self.v, self.w])
         wp.copy(self.v_collided, self.v)
         wp.copy(self.w_collided, self.w)

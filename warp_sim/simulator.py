@@ -245,10 +245,10 @@ class Simulator:
             self.strain_limiter.apply(self.state, self._next, h)
         if self.body_contacts is not None:
             self.body_contacts.apply(self.state, self._next, h)
+        if self.particle_shapes is not None:   # before the planes: a particle squeezed between a body and
+            self.particle_shapes.apply(self._next)   # the ground ends on the ground, not below it
         if self.impacts is not None:
             self.impacts.apply(self.state, self._next, h)
-        if self.particle_shapes is not None:
-            self.particle_shapes.apply(self._next)
         self.dynamics.post_step(self._next)
         self.state, self._next = self._next, self.state
         if self.emitters is not None:

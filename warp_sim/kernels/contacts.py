@@ -626,6 +626,30 @@ def impact_levers(ids: wp.vec2i, body_count: int, x_start: wp.array(dtype=Any), 
     return point - x1, point - x2
 
 
+@wp.func
+def accumulate(pair: wp.vec2i, body_count: int, v: wp.array(dtype=Any), w: wp.array(dtype=Any),
+               inv_mass: wp.array(dtype=Any), inv_inertia_world: wp.array(dtype=Any), r1: Any, r2: Any, n: Any,
+               target: Any, mu: Any, old_n: Any, old_t: Any):
+    """One sequential-impulse update of a contact: the accumulated normal impulse [N s] moves toward the one
+    that leaves normal velocity ``target`` [m/s], kept >= 0; then the accumulated friction impulse toward
+    the one that stops sliding, kept in the Coulomb disc |Jt| <= mu Jn. Returns (Jn, Jt)."""
+    zero = old_n * type(old_n)(0.0)
+    rel = relative_velocity(pair, body_count, v, w, r1, r2)
+    k = pair_mass(pair, body_count, inv_mass, inv_inertia_world, r1, r2, n)
+    total = wp.max(old_n + (target - wp.dot(rel, n)) / k, zero)
+    Jt = old_t
+    if total > zero or old_n > zero:
+        apply_pair_impulse(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2, n * (total - old_n))
+        rel = relative_velocity(pair, body_count, v, w, r1, r2)
+        Jt = old_t + friction_impulse(pair, body_count, inv_mass, inv_inertia_world, r1, r2, n, rel)
+        limit = mu * total
+        length = wp.length(Jt)
+        if length > limit:
+            Jt = Jt * (limit / length)
+        apply_pair_impulse(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2, Jt - old_t)
+    return total, Jt
+
+
 @wp.kernel
 def collision_sweeps(
     count: int,
@@ -649,31 +673,55 @@ def collision_sweeps(
     inv_mass: wp.array(dtype=Any),
     inv_inertia_world: wp.array(dtype=Any),
     bounce_speed: Any,
+    target: wp.array(dtype=Any),
+    collision_n: wp.array(dtype=Any),
+    collision_t: wp.array(dtype=Any),
     v: wp.array(dtype=Any),
     w: wp.array(dtype=Any),
 ):
-    """Collisions, in order (Gauss-Seidel): every contact still approaching faster than bounce_speed at its
-    time of impact gets the lecture's impulse j = -(1 + e) v_rel . n / (1/M1 + 1/M2 + n . ((I1^-1 (r1 x n))
-    x r1) + n . ((I2^-1 (r2 x n)) x r2)), with Coulomb friction up to mu j; repeated so that impacts
-    propagate through touching bodies (Newton's cradle)."""
+    """Collisions, pair after pair (Gauss-Seidel), repeated so that impacts propagate through touching
+    bodies (Newton's cradle). A pair whose contacts approach faster than bounce_speed at their time of
+    impact collides: each such contact must leave with -e times its approach speed u (plus what the
+    forces add after the impact), which for one contact is the lecture's impulse
+    j = -(1 + e) u / (1/M1 + 1/M2 + n . ((I1^-1 (r1 x n)) x r1) + n . ((I2^-1 (r2 x n)) x r2)), with
+    Coulomb friction up to mu j. The contacts of one pair (a box landing flat: four corners) are solved
+    together, by accumulated impulses iterated to convergence, so simultaneous contacts share the
+    impulse instead of the first one taking it all and spinning the body. A pair's contacts are
+    consecutive in the buffer (the narrow phase writes them together; where a parallel device
+    interleaves them, each run of them is solved as a group)."""
+    zero = type(bounce_speed)(0.0)
     for _sweep in range(sweeps):
-        for c in range(count):
-            if impact_time[c] >= type(bounce_speed)(0.0):
-                pair = ids[c]
-                n = normal[c]
-                r1, r2 = impact_levers(pair, body_count, x_start, q_start, x, q, impact_time[c] / h, anchor1[c],
-                                       anchor2[c], n, rounding1[c], rounding2[c])
-                rel = relative_velocity(pair, body_count, v, w, r1, r2)
-                approach = wp.dot(rel, n) - after_impact[c]
-                if approach < -bounce_speed:
-                    k = pair_mass(pair, body_count, inv_mass, inv_inertia_world, r1, r2, n)
-                    j = -(type(k)(1.0) + restitution[c]) * approach / k
-                    Jt = friction_impulse(pair, body_count, inv_mass, inv_inertia_world, r1, r2, n, rel)
-                    limit = friction[c] * j
-                    stick = wp.length(Jt)
-                    if stick > limit:
-                        Jt = Jt * (limit / stick)
-                    apply_pair_impulse(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2, n * j + Jt)
+        c = int(0)
+        while c < count:
+            pair = ids[c]
+            end = c + 1
+            while end < count and ids[end][0] == pair[0] and ids[end][1] == pair[1]:
+                end += 1
+            impacts = int(0)
+            for k in range(c, end):
+                target[k] = type(bounce_speed)(-1.0e30)
+                collision_n[k] = zero
+                collision_t[k] = normal[k] * zero
+                if impact_time[k] >= zero:
+                    n = normal[k]
+                    r1, r2 = impact_levers(pair, body_count, x_start, q_start, x, q, impact_time[k] / h, anchor1[k],
+                                           anchor2[k], n, rounding1[k], rounding2[k])
+                    approach = wp.dot(relative_velocity(pair, body_count, v, w, r1, r2), n) - after_impact[k]
+                    if approach < -bounce_speed:
+                        target[k] = after_impact[k] - restitution[k] * approach
+                        impacts += 1
+            if impacts > 0:
+                for _iteration in range(sweeps):
+                    for k in range(c, end):
+                        if target[k] > type(bounce_speed)(-1.0e29):
+                            n = normal[k]
+                            r1, r2 = impact_levers(pair, body_count, x_start, q_start, x, q, impact_time[k] / h,
+                                                   anchor1[k], anchor2[k], n, rounding1[k], rounding2[k])
+                            jn, jt = accumulate(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2, n,
+                                                target[k], friction[k], collision_n[k], collision_t[k])
+                            collision_n[k] = jn
+                            collision_t[k] = jt
+            c = end
 
 
 @wp.kernel
@@ -697,11 +745,9 @@ def contact_sweeps(
     v: wp.array(dtype=Any),
     w: wp.array(dtype=Any),
 ):
-    """Resting and sliding contact, sequential impulses: the accumulated normal impulse of each contact
-    stays >= 0 and leaves a normal velocity of at least min_normal_speed at the end of the step; the
-    accumulated friction impulse stays in the Coulomb disc |Jt| <= mu Jn. Both start from the impulses
-    the same contact needed last step (warm starting), so stacks converge in a few sweeps."""
-    zero = type(inv_mass[0])(0.0)
+    """Resting and sliding contact, sequential impulses (``accumulate``) toward a normal velocity of at least
+    min_normal_speed at the end of the step, starting from the impulses the same contact needed last
+    step (warm starting), so stacks converge in a few sweeps."""
     for c in range(count):   # warm start: last step's impulses of the same contacts
         pair = ids[c]
         r1, r2 = levers(pair, body_count, q, anchor1[c], anchor2[c], normal[c], rounding1[c], rounding2[c])
@@ -712,22 +758,10 @@ def contact_sweeps(
             pair = ids[c]
             n = normal[c]
             r1, r2 = levers(pair, body_count, q, anchor1[c], anchor2[c], n, rounding1[c], rounding2[c])
-            rel = relative_velocity(pair, body_count, v, w, r1, r2)
-            k = pair_mass(pair, body_count, inv_mass, inv_inertia_world, r1, r2, n)
-            old = impulse_n[c]
-            total = wp.max(old + (min_normal_speed[c] - wp.dot(rel, n)) / k, zero)
-            if total > zero or old > zero:
-                apply_pair_impulse(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2, n * (total - old))
-                impulse_n[c] = total
-                rel = relative_velocity(pair, body_count, v, w, r1, r2)
-                old_t = impulse_t[c]
-                Jt = old_t + friction_impulse(pair, body_count, inv_mass, inv_inertia_world, r1, r2, n, rel)
-                limit = friction[c] * total
-                length = wp.length(Jt)
-                if length > limit:
-                    Jt = Jt * (limit / length)
-                apply_pair_impulse(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2, Jt - old_t)
-                impulse_t[c] = Jt
+            jn, jt = accumulate(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2, n, min_normal_speed[c],
+                                friction[c], impulse_n[c], impulse_t[c])
+            impulse_n[c] = jn
+            impulse_t[c] = jt
 
 
 # warm starting: last step's impulses, found again by pair and anchor cell -----------------
@@ -1053,6 +1087,7 @@ def penalty_forces(
 # both precisions declared up front: the module then compiles once with every kernel, rather than once per
 # new overload as a simulation first launches each (minutes on a cold cache for this large module)
 _VECTORS = {"x_start", "P_start", "L_start", "x_end", "P_end", "L_end", "anchor1", "anchor2", "normal", "impulse_t",
+            "collision_t",
             "v", "w", "v_collided", "w_collided", "x", "P", "L", "stored_t", "body_x", "body_P", "body_L", "body_f",
             "body_t"}
 _QUATERNIONS = {"q_start", "q_end", "q", "body_q"}
