@@ -21,6 +21,29 @@ def _demo(args) -> int:
     return 0
 
 
+def _study(args) -> int:
+    import pathlib
+
+    from . import studies
+
+    out = pathlib.Path(args.out or f"out/{args.study}")
+    started = time.perf_counter()
+    log = None if args.quiet else (lambda line: print(line, flush=True))
+    if args.study == "accuracy":
+        result = studies.accuracy(problems=args.problems, integrators=args.integrators, quick=args.quick,
+                                  device=args.device, repeats=args.repeats, log=log)
+    else:
+        result = studies.stability(cases=args.cases, integrators=args.integrators, quick=args.quick,
+                                   device=args.device, log=log)
+    images = result.plot(out)
+    result.to_csv(out / f"{args.study}.csv")
+    report = result.to_markdown(out / f"{args.study}.md", images=images)
+    print(f"wrote {report}, {out / f'{args.study}.csv'} and {len(images)} plots"
+          + ("" if images else " (matplotlib not installed: pip install 'warp-sim[plots]')")
+          + f" in {time.perf_counter() - started:.1f} s wall time")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from .integrators import INTEGRATORS
 
@@ -45,7 +68,37 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--no-progress", action="store_true", help="no progress bar")
     demo.add_argument("--verbose", action="store_true", help="show Warp's compilation messages")
     demo.set_defaults(run=_demo)
+    _study_parser(commands, INTEGRATORS)
     return parser
+
+
+def _study_parser(commands, integrators) -> None:
+    from .studies import CASES, PROBLEMS
+
+    study = commands.add_parser(
+        "study", help="run the accuracy or the stability study and write its report",
+        description="Run a study on the simulator itself and write a markdown report, a CSV and PNG plots "
+                    "(plots need matplotlib).")
+    kinds = study.add_subparsers(dest="study", required=True, metavar="STUDY")
+    for name, text in (("accuracy", "error against run time and observed orders of every integrator on "
+                                    "reference problems"),
+                       ("stability", "the largest stable step of every integrator on stiff springs and "
+                                     "extreme cases, by bisection, next to theory")):
+        kind = kinds.add_parser(name, help=text, description=text[0].upper() + text[1:] + ".")
+        kind.add_argument("--quick", action="store_true", help="fewer and coarser runs (under a minute)")
+        kind.add_argument("--out", default=None, help=f"output folder (default: out/{name})")
+        kind.add_argument("--device", default="cpu", help="Warp device, e.g. cpu or cuda:0 (default: cpu)")
+        kind.add_argument("--integrators", nargs="+", metavar="NAME", choices=sorted(integrators),
+                          help="integrators to study (default: all)")
+        if name == "accuracy":
+            kind.add_argument("--problems", nargs="+", metavar="NAME", choices=list(PROBLEMS),
+                              help=f"problems (default: all): {', '.join(PROBLEMS)}")
+            kind.add_argument("--repeats", type=int, default=3, help="timed runs per point (default: 3)")
+        else:
+            kind.add_argument("--cases", nargs="+", metavar="NAME", choices=list(CASES),
+                              help=f"cases (default: all): {', '.join(CASES)}")
+        kind.add_argument("--quiet", action="store_true", help="no progress lines")
+        kind.set_defaults(run=_study)
 
 
 def main(argv=None) -> int:
@@ -53,7 +106,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     import warp as wp
 
-    wp.config.log_level = wp.LOG_INFO if args.verbose else wp.LOG_WARNING
+    wp.config.log_level = wp.LOG_INFO if getattr(args, "verbose", False) else wp.LOG_WARNING
     try:
         return args.run(args)
     except ValueError as error:

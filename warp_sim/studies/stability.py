@@ -1,0 +1,186 @@
+"""The stability study: the largest stable step of every integrator on stiff and extreme cases, by bisection.
+
+A run at step h is unstable when it goes non-finite or when the case's size (an energy, or a
+distance) grows: its largest value over the run's second half exceeds GROWTH times its largest
+over the first half. Not a fixed bound, so a stable scheme that loses or keeps energy passes and
+one that gains it by a factor per step fails. (A size past BLOWUP times its initial value also
+counts: growth so fast that it could saturate, nonlinearly, within the first half.) The search
+starts at 1 / omega (or the case's h0), moves by factors of 4 until one step is stable and the
+next is not, then bisects geometrically.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+from .. import checks
+from ..integrators import INTEGRATORS
+from ..simulator import Simulator, resolve_device
+from . import report
+from .cases import CASES, QUICK_SPRING_RATIOS, SPRING_RATIOS, spring_name
+from .common import COSTLY, is_adaptive, names
+
+GROWTH = 2.0            # unstable: the second half's largest size > GROWTH x the first half's
+BLOWUP = 1e4            # or any size > BLOWUP x the initial one (so fast it could saturate in the first half)
+STEPS, QUICK_STEPS = 2000, 300          # steps per run of a case without a duration
+MAX_STEPS, QUICK_MAX_STEPS = 20000, 5000   # the most steps a run of a case with a duration may take
+COSTLY_DIVISOR = 16     # COSTLY solvers run 16x fewer steps per run (their h range shrinks accordingly)
+BISECTIONS, QUICK_BISECTIONS = 9, 8     # final bracket 4^(1/512) (0.27 %) and 4^(1/256) (0.54 %)
+H_MAX = 100.0           # the search stops at h_max = H_MAX / omega (or the case's own h_max)
+SAMPLES = 200           # size samples per run of a case with a duration (every step without one)
+DAMPING_STEPS = (0.1, 1.0, 10.0, 100.0)   # omega h at which implicit Euler's numerical damping is measured
+#: theory for an undamped linear oscillator: the largest stable omega h (None: no limit, it grows at any step)
+THEORY = {"euler": None, "midpoint": None, "rk4": 2.0 * math.sqrt(2.0), "symplectic_euler": 2.0, "verlet": 2.0,
+          "implicit_euler": math.inf}
+
+
+def run_length_limit(integrator: str, steps: int, growth: float = GROWTH) -> float | None:
+    """omega h at which explicit Euler or midpoint, unstable at any step on an undamped oscillator, first
+    grow their energy by ``growth`` between the halves of a ``steps``-step run: their measured limit."""
+    per_step = math.exp(2.0 * math.log(growth) / steps) - 1.0    # rho^2 - 1 with rho^steps = growth
+    if integrator == "euler":                # rho^2 = 1 + (omega h)^2
+        return math.sqrt(per_step)
+    if integrator == "midpoint":             # rho^2 = 1 + (omega h)^4 / 4
+        return (4.0 * per_step) ** 0.25
+    return None
+
+
+def grows(case, integrator: str, h: float, steps: int, device: str) -> tuple[bool, list]:
+    """(unstable, sizes): one run of ``steps`` steps of h seconds, its size sampled along the way."""
+    sim = Simulator(case.build(), integrator=integrator, device=device, guard=False, **case.options)
+    stride = 1 if case.duration is None else max(1, steps // SAMPLES)   # a sampled energy can alias
+    sizes, first = [case.size(sim)], None
+    for done in range(stride, steps + 1, stride):
+        sim.step(h, stride)
+        size = case.size(sim)
+        sizes.append(size)
+        if not math.isfinite(size) or size > BLOWUP * sizes[0]:
+            return True, sizes
+        if first is None and done >= steps // 2:
+            first = max(sizes)
+        elif first is not None and size > GROWTH * first:
+            return True, sizes
+    return False, sizes
+
+
+def _run_steps(case, integrator: str, h: float, quick: bool) -> int:
+    divisor = COSTLY_DIVISOR if integrator in COSTLY else 1
+    if case.duration is None:
+        return (QUICK_STEPS if quick else STEPS) // divisor
+    return min(math.ceil(case.duration / h), (QUICK_MAX_STEPS if quick else MAX_STEPS) // divisor)
+
+
+def largest_stable_step(case, integrator: str, device: str = "cpu", quick: bool = False) -> dict:
+    """Bisection for the largest stable h [s]: {"limit": largest stable h found (None: unstable at every h
+    tried), "unstable": smallest unstable h (None: stable at every h tried), "probes": runs made}."""
+    h0 = case.h0 or 1.0 / case.omega
+    h_max = case.h_max or H_MAX * h0
+    h_min = case.duration / ((QUICK_MAX_STEPS if quick else MAX_STEPS) // (COSTLY_DIVISOR if integrator in COSTLY
+                                                                              else 1)) if case.duration else 1e-4 * h0
+    probes = 0
+
+    def stable(h: float) -> bool:
+        nonlocal probes
+        probes += 1
+        steps = max(2, _run_steps(case, integrator, h, quick))
+        return not grows(case, integrator, h, steps, device)[0]
+
+    low = high = None
+    h = min(max(h0, h_min), h_max)
+    while low is None or high is None:
+        if h > h_max or h < h_min:
+            break
+        if stable(h):
+            low, h = h, 4.0 * h
+        else:
+            high, h = h, 0.25 * h
+    if low is not None and high is not None:
+        for _ in range(QUICK_BISECTIONS if quick else BISECTIONS):
+            middle = math.sqrt(low * high)
+            if stable(middle):
+                low = middle
+            else:
+                high = middle
+    return {"limit": low, "unstable": high, "probes": probes}
+
+
+def implicit_damping(device: str = "cpu", quick: bool = False) -> list[dict]:
+    """Implicit Euler's numerical damping on the ks/m = 1e4 spring: the measured amplitude factor per step,
+    (E_end / E_0)^(1 / 2N), next to the theory 1 / sqrt(1 + (omega h)^2), at each omega h of DAMPING_STEPS."""
+    case = CASES["spring_1e4"]
+    rows = []
+    for omega_h in DAMPING_STEPS:
+        theory = 1.0 / math.sqrt(1.0 + omega_h**2)     # measured until the amplitude has fallen by about 1e6
+        steps = max(1, min((QUICK_STEPS if quick else STEPS) // COSTLY_DIVISOR, int(math.log(1e-6) / math.log(theory))))
+        _, sizes = grows(case, "implicit_euler", omega_h / case.omega, steps, device)
+        measured = (sizes[-1] / sizes[0]) ** (1.0 / (2.0 * steps)) if sizes[-1] > 0 else 0.0
+        rows.append({"omega_h": omega_h, "steps": steps, "amplitude_per_step": measured, "theory": theory})
+    return rows
+
+
+@dataclass
+class StabilityResult(report.Report):
+    """rows: one dict per (case, integrator): limit [s] (largest stable step found, NaN if none),
+    unstable [s] (smallest unstable step found, NaN if none), omega [rad/s], limit_omega_h, theory_omega_h,
+    ratio (measured / theory), probes; damping: implicit Euler's measured numerical damping;
+    wall_seconds; settings."""
+    rows: list
+    damping: list
+    wall_seconds: float
+    settings: dict = field(default_factory=dict)
+
+    def limit(self, case: str, integrator: str) -> float:
+        return next(r["limit"] for r in self.rows if r["case"] == case and r["integrator"] == integrator)
+
+    def markdown(self, images, path) -> str:
+        return report.stability_markdown(self, images, path)
+
+    def plot(self, directory) -> list:
+        """The limits against ks/m and the extreme cases as PNGs into ``directory``; [] without matplotlib."""
+        from .plots import stability_plots
+
+        return stability_plots(self, directory)
+
+
+def stability(cases=None, integrators=None, quick=False, device="cpu", log=None) -> StabilityResult:
+    """Run the stability study; returns a StabilityResult.
+
+    cases: names from CASES (default: all; with quick, the springs at ks/m = 1e2 and 1e8 and every
+    extreme case); integrators: names from INTEGRATORS (default: all fixed-step ones; adaptive
+    solvers choose their own step and are skipped); log: a callable given a line per case.
+    """
+    started = time.perf_counter()
+    chosen = names("cases", cases, list(CASES))
+    if cases is None and quick:
+        skipped = {spring_name(r) for r in SPRING_RATIOS if r not in QUICK_SPRING_RATIOS}
+        chosen = [name for name in chosen if name not in skipped]
+    fixed = [n for n in INTEGRATORS if not is_adaptive(n)]
+    solvers = names("integrators", integrators, list(INTEGRATORS)) if integrators is not None else fixed
+    adaptive = [n for n in solvers if n not in fixed]
+    if adaptive:
+        raise checks.fail("integrators", integrators, f"{', '.join(adaptive)} choose their own step from a tolerance; "
+                                                      f"expected fixed-step solvers from {', '.join(fixed)}")
+    device = resolve_device(device)
+    rows = []
+    for name in chosen:
+        case = CASES[name]
+        for integrator in solvers:
+            found = largest_stable_step(case, integrator, device, quick)
+            steps = _run_steps(case, integrator, found["limit"] or case.h0 or 1.0, quick)
+            theory = THEORY[integrator] if case.omega is not None else None
+            if theory is None and case.omega is not None and case.duration is None:
+                theory = run_length_limit(integrator, steps)
+            limit, unstable = found["limit"] or math.nan, found["unstable"] or math.nan
+            omega_h = limit * case.omega if case.omega else math.nan
+            rows.append({"case": name, "group": case.group, "integrator": integrator, "limit": limit,
+                         "unstable": unstable, "omega": case.omega or math.nan, "limit_omega_h": omega_h,
+                         "theory_omega_h": math.nan if theory is None else theory,
+                         "ratio": omega_h / theory if theory and math.isfinite(theory) else math.nan,
+                         "steps_per_run": steps if case.duration is None else math.nan, "probes": found["probes"]})
+        if log is not None:
+            shown = ", ".join(f"{r['integrator']} {report.number(r['limit'])}" for r in rows[-len(solvers):])
+            log(f"{name}: largest stable h [s] {shown} ({time.perf_counter() - started:.0f} s)")
+    damping = implicit_damping(device, quick) if "implicit_euler" in solvers else []
+    settings = {"quick": quick, "device": device, "growth": GROWTH}
+    return StabilityResult(rows, damping, time.perf_counter() - started, settings)
