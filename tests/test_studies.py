@@ -88,6 +88,18 @@ def test_command_line(tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("study, names", [("accuracy", "PROBLEMS"), ("stability", "CASES")])
+def test_quick_study_command_runs_whole(tmp_path, study, names):
+    """What CI runs: each study command in its --quick mode over every problem or case and integrator."""
+    out = tmp_path / study
+    assert main(["study", study, "--quick", "--out", str(out), "--quiet"]) == 0
+    report = (out / f"{study}.md").read_text()
+    for name in getattr(studies, names):
+        if not name.startswith("spring_"):   # the single springs form one table, by ks/m
+            assert name in report
+    assert any(p.suffix == ".png" for p in out.iterdir())
+
+
 @pytest.mark.parametrize("call, argument, shown", [
     (lambda: studies.accuracy(problems=["nope"]), "problems", "nope"),
     (lambda: studies.accuracy(integrators=["rk5"]), "integrators", "rk5"),
