@@ -31,6 +31,7 @@ import warp as wp
 
 from .dynamics import Forces, ForceTerm
 from .kernels import contacts as contact_kernels
+from .kernels import detection as detection_kernels
 from .kernels.geometry import KINDS
 from .model import Model, State
 
@@ -138,7 +139,7 @@ class ContactGeometry:
                 add(shape, np.zeros(3), None, _origin_bound(shape), collider.restitution, collider.friction,
                     collider.position, collider.orientation)
 
-        g = contact_kernels.Geoms()
+        g = detection_kernels.Geoms()
 
         def array(values, dtype, shape=None):
             data = np.asarray(values, dtype=np.float64 if dtype not in (wp.int32, wp.uint64) else None)
@@ -178,7 +179,7 @@ def _origin_bound(shape) -> float:
 
 
 class _Buffer:
-    """A growable device buffer of pairs or contacts (a kernels.contacts.ContactBuffer)."""
+    """A growable device buffer of pairs or contacts (a kernels.detection.ContactBuffer)."""
 
     def __init__(self, device, capacity: int, with_points: bool):
         self.device = device
@@ -189,7 +190,7 @@ class _Buffer:
 
     def _allocate(self, capacity: int) -> None:
         self.capacity = capacity
-        b = contact_kernels.ContactBuffer()
+        b = detection_kernels.ContactBuffer()
         b.count = self.count
         b.ids = wp.empty(capacity, dtype=wp.vec2i, device=self.device)
         size = capacity if self.with_points else 0
@@ -245,19 +246,19 @@ class Detection:
         geoms = self.geometry.geoms
         B = m.body_count
         self.geometry.max_reach.zero_()
-        m.launch(contact_kernels.gather_poses, B, [start.body_x, start.body_q, end.body_x, end.body_q, self.margin,
+        m.launch(detection_kernels.gather_poses, B, [start.body_x, start.body_q, end.body_x, end.body_q, self.margin,
                                                    geoms, self.geometry.max_reach])
         self.grid.build(geoms.x[:B], self.cell)
         statics = self.geometry.static_count
 
         def pairs(buffer):
-            m.launch(contact_kernels.find_pairs, B, [geoms, self.grid.id, statics, self.planes_normal,
+            m.launch(detection_kernels.find_pairs, B, [geoms, self.grid.id, statics, self.planes_normal,
                                                      self.planes_offset, self.geometry.max_reach, buffer])
 
         self.pair_count = self.pairs.fill(pairs)
 
         def contacts(buffer):
-            m.launch(contact_kernels.narrow_phase, self.pair_count, [self.pairs.buffer, geoms, self.planes_normal,
+            m.launch(detection_kernels.narrow_phase, self.pair_count, [self.pairs.buffer, geoms, self.planes_normal,
                                                                      self.planes_offset, self.margin, buffer])
 
         self.count = self.contacts.fill(contacts) if self.pair_count else 0

@@ -15,5 +15,10 @@ Topics:
 - ``implicit``: the spring Jacobians and solves of the implicit Euler step
 - ``rigid``: rigid-body rates (x, q, P, L), orientation renormalisation, impulses, derived v, omega and R
 - ``planes``: particle-plane contacts, time-of-impact impulse and penalty responses
+- ``geometry``: signed distances of every shape, segment and polygon helpers (functions only)
+- ``detection``: body collision shapes on the device, hash-grid broad phase, narrow phase
+- ``contacts``: body contact response (time of impact, impulses, friction, projection), penalty
+  forces, particles pushed by shapes
+- ``precisions`` (no kernels): registers both precisions of a module's generic kernels at import
 - ``guards``: detection of non-finite or runaway states
 """

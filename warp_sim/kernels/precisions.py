@@ -1,0 +1,38 @@
+"""Declaring both precisions of a module's generic kernels up front.
+
+Warp rebuilds a module each time a launch needs a new overload; a large module whose kernels
+a simulation first launches one by one then compiles many times over (minutes on a cold
+cache). Registering the float32 and float64 overloads at import builds it once with all of them.
+Argument names decide the array types (the kernels' naming convention).
+"""
+from typing import Any
+
+import warp as wp
+
+VECTORS = {"x_start", "P_start", "L_start", "x_end", "P_end", "L_end", "anchor1", "anchor2", "normal", "impulse_t",
+           "collision_t", "v", "w", "v_collided", "w_collided", "x", "P", "L", "stored_t", "body_x", "body_P",
+           "body_L", "body_f", "body_t"}
+QUATERNIONS = {"q_start", "q_end", "q", "body_q"}
+MATRICES = {"inv_inertia", "inv_inertia_world", "body_inv_inertia"}
+
+
+def declare_precisions(namespace: dict) -> None:
+    """Register float32 and float64 overloads of every generic kernel in a module's namespace (``globals()``):
+    array arguments named in VECTORS, QUATERNIONS or MATRICES get that type, other generic ones the scalar."""
+    kinds = ((wp.float32, wp.vec3f, wp.quatf, wp.mat33f), (wp.float64, wp.vec3d, wp.quatd, wp.mat33d))
+    for kernel in (value for value in list(namespace.values()) if isinstance(value, wp.Kernel)):
+        generic = [a for a in kernel.adj.args
+                   if a.type is Any or (isinstance(a.type, wp.array) and a.type.dtype is Any)]
+        if not generic:
+            continue
+        for scalar, vec3, quat, mat33 in kinds:
+            types = {}
+            for arg in generic:
+                if arg.type is Any:
+                    types[arg.label] = scalar
+                else:
+                    dtype = vec3 if arg.label in VECTORS else quat if arg.label in QUATERNIONS else \
+                        mat33 if arg.label in MATRICES else scalar
+                    types[arg.label] = wp.array(dtype=dtype)
+            wp.overload(kernel, types)
+
