@@ -114,7 +114,7 @@ def test_particle_lights_its_pixel_and_the_ground_below_is_floor():
     assert red.sum() == red[int(row) - 4:int(row) + 5, int(column) - 4:int(column) + 5].sum()   # nowhere else
     # below the horizon (the middle row) lies the floor: grey, the same in each channel within a few levels
     floor = image[H - 5, 10].astype(int)
-    tones = [np.round(255 * tone).astype(int) for tone in preview._FLOOR]     # the checker's two, near: no fog
+    tones = [np.round(255 * tone).astype(int) for tone in preview.raster._FLOOR]     # the checker's two, near: no fog
     assert min(np.abs(floor - tone).max() for tone in tones) <= 2
     # above it the sky: bluer than red
     sky = image[5, 10].astype(int)
