@@ -41,6 +41,22 @@ def response_mass(inv_mass: Any, inv_inertia_world: Any, r: Any, n: Any):
     return inv_mass + wp.dot(n, wp.cross(inv_inertia_world * wp.cross(r, n), r))
 
 
+@wp.func
+def pair_material(geoms: Geoms, plane_restitution: wp.array(dtype=wp.float32),
+                  plane_friction: wp.array(dtype=wp.float32), i: int, j: int):
+    """A contact's restitution and friction: the means of body i's values and the other side's (a body, a
+    static collider, or plane -1 - j)."""
+    e = geoms.restitution[i]
+    mu = geoms.friction[i]
+    if j < 0:
+        e = 0.5 * (e + plane_restitution[-1 - j])
+        mu = 0.5 * (mu + plane_friction[-1 - j])
+    else:
+        e = 0.5 * (e + geoms.restitution[j])
+        mu = 0.5 * (mu + geoms.friction[j])
+    return e, mu
+
+
 @wp.kernel
 def prepare_contacts(
     contacts: ContactBuffer,
@@ -105,14 +121,9 @@ def prepare_contacts(
                                                    lever(q_start[j], a2, n, round2)))
         end2 = x_end[j] + lever(q_end[j], a2, n, round2)
     gap_end = wp.dot(n, x_end[i] + lever(q_end[i], a1, n, round1) - end2)
-    e = zero
-    mu = zero
-    if j < 0:
-        e = type(h)(0.5 * (geoms.restitution[i] + plane_restitution[-1 - j]))
-        mu = type(h)(0.5 * (geoms.friction[i] + plane_friction[-1 - j]))
-    else:
-        e = type(h)(0.5 * (geoms.restitution[i] + geoms.restitution[j]))
-        mu = type(h)(0.5 * (geoms.friction[i] + geoms.friction[j]))
+    e32, mu32 = pair_material(geoms, plane_restitution, plane_friction, i, j)
+    e = type(h)(e32)
+    mu = type(h)(mu32)
     gap = wp.dot(n, p1 - p2) + round1 - round2
     # the normal acceleration from forces: the change of the centres' velocities (rotation alone is kinematic)
     dv = (P_end[i] - P_start[i]) * inv_mass[i]
@@ -674,18 +685,13 @@ def penalty_forces(
     inverse_mass = inv_mass[i]
     dynamic = is_body(j, geoms.body_count)
     r2 = p2 * zero
-    e = zero
-    mu = zero
     if dynamic:
         r2 = p2 - x[j]
         rel -= state_point_velocity(q[j], P[j], L[j], inv_mass[j], inv_inertia[j], r2)
         inverse_mass += inv_mass[j]
-    if j < 0:
-        e = type(stiffness)(0.5 * (geoms.restitution[i] + plane_restitution[-1 - j]))
-        mu = type(stiffness)(0.5 * (geoms.friction[i] + plane_friction[-1 - j]))
-    else:
-        e = type(stiffness)(0.5 * (geoms.restitution[i] + geoms.restitution[j]))
-        mu = type(stiffness)(0.5 * (geoms.friction[i] + geoms.friction[j]))
+    e32, mu32 = pair_material(geoms, plane_restitution, plane_friction, i, j)
+    e = type(stiffness)(e32)
+    mu = type(stiffness)(mu32)
     zeta = type(stiffness)(1.0)
     if e > zero:
         log_e = wp.log(e)
