@@ -2,16 +2,38 @@
 
 The public API: build a Scene, run it with a Simulator, read the State or the USD stage.
 """
-from .emitters import Ramp
-from .fields import Attractor, Turbulence, Vortex
-from .guards import SimulationDiverged
-from .integrators import INTEGRATORS, AdaptiveStepFailed
-from .model import Model, State
-from .scene import Scene
-from .shapes import Box, Capsule, Cylinder, MassProperties, MeshShape, PointMasses, Shape, Sphere
+from .core import Control, Model, SimulationDiverged, State
+from .scene import (
+                    Attractor,
+                    Box,
+                    Capsule,
+                    Cylinder,
+                    MassProperties,
+                    MeshShape,
+                    PointMasses,
+                    Ramp,
+                    Scene,
+                    Shape,
+                    Sphere,
+                    Turbulence,
+                    Vortex,
+)
 from .simulator import Simulator
+from .solvers import (
+                    INTEGRATORS,
+                    RK4,
+                    RK45,
+                    AdaptiveStepFailed,
+                    Euler,
+                    ImplicitEuler,
+                    Integrator,
+                    Midpoint,
+                    SymplecticEuler,
+                    VelocityVerlet,
+)
 
 __version__ = "0.1.0"
-__all__ = ["Scene", "Simulator", "Model", "State", "SimulationDiverged", "AdaptiveStepFailed", "INTEGRATORS",
-           "Shape", "Sphere", "Box", "Capsule", "Cylinder", "MeshShape", "PointMasses", "MassProperties", "Ramp",
-           "Attractor", "Vortex", "Turbulence", "__version__"]
+__all__ = ["Scene", "Simulator", "Model", "State", "Control", "SimulationDiverged", "AdaptiveStepFailed",
+           "INTEGRATORS", "Integrator", "Euler", "Midpoint", "RK4", "SymplecticEuler", "VelocityVerlet",
+           "ImplicitEuler", "RK45", "Shape", "Sphere", "Box", "Capsule", "Cylinder", "MeshShape", "PointMasses",
+           "MassProperties", "Ramp", "Attractor", "Vortex", "Turbulence", "__version__"]

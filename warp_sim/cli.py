@@ -2,16 +2,22 @@
 from __future__ import annotations
 
 import argparse
+import pathlib
 import sys
 import time
 
+import warp as wp
+
+from . import studies
+from .demo import demo_scene
+from .simulator import Simulator
+from .solvers import INTEGRATORS
+from .studies import CASES, PROBLEMS
+
 
 def _demo(args) -> int:
-    from .demo import demo_scene
-    from .simulator import Simulator
-
     sim = Simulator(demo_scene(), integrator=args.integrator, device=args.device)
-    print(f"warp-sim demo: {sim.model.scene!r} on {sim.device.alias}, {args.integrator}, "
+    print(f"warp-sim demo: {sim.scene!r} on {sim.device.alias}, {args.integrator}, "
           f"{args.seconds:g} s at {args.fps:g} fps x {args.substeps} substeps")
     started = time.perf_counter()
     path = sim.run(seconds=args.seconds, fps=args.fps, substeps=args.substeps, usd=args.out,
@@ -22,10 +28,6 @@ def _demo(args) -> int:
 
 
 def _study(args) -> int:
-    import pathlib
-
-    from . import studies
-
     out = pathlib.Path(args.out or f"out/{args.study}")
     started = time.perf_counter()
     log = None if args.quiet else (lambda line: print(line, flush=True))
@@ -45,8 +47,6 @@ def _study(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .integrators import INTEGRATORS
-
     parser = argparse.ArgumentParser(
         prog="warp-sim",
         description="Physically based animation in NVIDIA Warp kernels, written to USD stages.")
@@ -73,8 +73,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _study_parser(commands, integrators) -> None:
-    from .studies import CASES, PROBLEMS
-
     study = commands.add_parser(
         "study", help="run the accuracy or the stability study and write its report",
         description="Run a study on the simulator itself and write a markdown report, a CSV and PNG plots "
@@ -104,8 +102,6 @@ def _study_parser(commands, integrators) -> None:
 def main(argv=None) -> int:
     """Entry point of the `warp-sim` console script."""
     args = build_parser().parse_args(argv)
-    import warp as wp
-
     wp.config.log_level = wp.LOG_INFO if getattr(args, "verbose", False) else wp.LOG_WARNING
     try:
         return args.run(args)

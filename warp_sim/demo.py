@@ -6,9 +6,8 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from . import shapes
-from .emitters import Ramp
-from .scene import Scene
+from . import scene as shapes  # the shape classes: shapes.Box, shapes.Sphere, ...
+from .scene import Ramp, Scene
 
 WIND = (3.0, 0.0, 1.0)   # [m/s]: blows the flag (and drags everything a little)
 PILE_ORIGIN = (-2.0, 0.0, 2.5)   # [m]: where the pile of boxes and spheres falls

@@ -1,18 +1,16 @@
-"""Simulator: builds a scene on a device and advances it; step, run, guards, progress, USD."""
+"""Simulator: the loop. Each step: the solver, then the passes in order, then the guard; frames() and run()."""
 from __future__ import annotations
 
 import numpy as np
 import warp as wp
+from tqdm.auto import tqdm
 
-from . import checks
-from .collision import RESPONSES, PlaneImpacts, PlanePenalty
-from .contacts import BodyContacts, ContactGeometry, ContactPenalty, ParticleShapeContacts
-from .dynamics import Dynamics
-from .guards import Guard, SimulationDiverged
-from .integrators import make_integrator
+from .assembly import RESPONSES, assemble
+from .core.guards import Guard, SimulationDiverged
 from .kernels import rigid as rigid_kernels
-from .model import Model
 from .scene import Scene
+from .stages import StageWriter, stage_layout
+from .util import checks
 
 
 def resolve_device(device: str | None) -> str:
@@ -27,86 +25,33 @@ def resolve_device(device: str | None) -> str:
     return device
 
 
-def _shape_drawing(shape, origin) -> dict:
-    """The USD drawing fields of a shape (kind, size, points, faces, radius), points relative to ``origin`` [m]."""
-    points = faces = None
-    radius = 0.02
-    if shape.kind == "mesh":
-        points, faces = shape.vertices - origin, shape.faces
-    elif shape.kind == "points":
-        points, radius = shape.positions - origin, shape.radius
-    return {"kind": shape.kind, "size": tuple(shape.size), "points": points, "faces": faces, "radius": radius}
-
-
-def body_spec(index: int, body):
-    """The USD BodySpec of one scene body: its shape drawn in the body frame (centre of mass at the origin)."""
-    from .stages import BodySpec
-
-    return BodySpec(body.name, index, **_shape_drawing(body.shape, body.mass.com), color=body.color)
-
-
-def collider_spec(collider):
-    """The USD ColliderSpec of one scene collider: its shape drawn in the shape frame (no centre-of-mass offset)."""
-    from .stages import ColliderSpec
-
-    return ColliderSpec(collider.name, **_shape_drawing(collider.shape, np.zeros(3)), color=collider.color,
-                        position=tuple(collider.position.tolist()), orientation=tuple(collider.orientation.tolist()))
-
-
-def stage_layout(scene: Scene):
-    """The USD StageLayout of a scene: its particle groups, springs, bodies, planes, cloths, soft bodies and
-    static colliders.
-
-    A cloth's or soft body's particles and springs are drawn as its UsdGeom.Mesh only, not also
-    as Points and spring curves."""
-    from .stages import MeshSpec, PlaneSpec, PointsGroup, StageLayout
-
-    radius = scene.particle_array("radius")
-    meshed = {(m.start, m.count) for m in scene.meshes}
-    groups = tuple(PointsGroup(g.name, g.start, g.count, 2.0 * radius[g.start:g.start + g.count], g.color,
-                               pooled=g.pooled) for g in scene.particle_groups if (g.start, g.count) not in meshed)
-    planes = tuple(PlaneSpec(p.name, tuple(p.normal), p.offset) for p in scene.planes)
-    springs = None
-    if scene.spring_count:
-        drawn = np.ones(scene.spring_count, dtype=bool)
-        for mesh in scene.meshes:
-            for family in mesh.springs.values():
-                drawn[np.asarray(family, dtype=np.int64)] = False
-        springs = scene.spring_array("pairs")[drawn] if drawn.any() else None
-    bodies = tuple(body_spec(index, body) for index, body in enumerate(scene.bodies))
-    meshes = tuple(MeshSpec(m.name, m.start, m.count, m.face_counts, m.face_indices, m.color) for m in scene.meshes)
-    colliders = tuple(collider_spec(collider) for collider in scene.colliders)
-    return StageLayout(points_groups=groups, springs=springs, planes=planes, bodies=bodies, meshes=meshes,
-                       colliders=colliders)
-
-
 class Simulator:
     """Runs a Scene on a device with one ODE solver.
 
-    integrator: one of warp_sim.INTEGRATORS; device: a Warp device alias, or None
-    for CUDA when present, else the CPU; contact: "impulse" (time of impact,
-    default) or "penalty" (spring and damper on penetration); penalty_stiffness
-    [N/m]; guard: check for non-finite values and speeds above max_speed [m/s]
-    after every step (read every step() and every frame of run()); contact_margin [m]:
-    the gap at which bodies count as touching (warp_sim.contacts); collisions: False leaves
-    contacts with bodies and colliders out (bodies pass through each other, colliders and
-    planes, particles through bodies and colliders; particles still meet planes).
-    rtol, atol: the relative and absolute error tolerances of the adaptive integrator "rk45"
-    (warp_sim.integrators.RK45: 4 machine epsilons <= rtol < 1, default 1e-6; atol > 0 in the
-    state's units, default 1e-9); None leaves the default. Giving either to a fixed-step
-    integrator raises ValueError. With "rk45" each ``step(dt)`` lands exactly on t + dt, taking as
-    many internal steps as the tolerance needs (``sim.integrator.accepted``, ``.rejected``,
-    ``.evaluations`` count them), so ``run(..., substeps=1)`` is the natural choice.
+    integrator: a solver name (one of warp_sim.INTEGRATORS) or a solver instance such as
+        ``ws.RK45(rtol=1e-8, atol=1e-10)`` or ``ws.ImplicitEuler(tolerance=1e-8)`` (made for this Simulator)
+    device: a Warp device alias, or None for CUDA when present, else the CPU
+    contact: "impulse" (time of impact, default) or "penalty" (spring and damper on penetration)
+    penalty_stiffness: the penalty contacts' spring [N/m]
+    guard: check for non-finite values and speeds above max_speed after every step (read every step()
+        and every frame of run())
+    max_speed: the guard's speed bound [m/s]
+    contact_margin: the gap at which bodies count as touching [m]
+    collisions: False leaves contacts with bodies and colliders out (bodies pass through each other, colliders
+        and planes, particles through bodies and colliders; particles still meet planes)
 
-    ``state`` holds the current State; it is a new object after each step (the
-    solver writes into a second state and the two are swapped), so read
-    ``sim.state.particle_x`` afresh rather than keeping the array.
+    With "rk45" each ``step(dt)`` lands exactly on t + dt, taking as many internal steps as the tolerance
+    needs (``sim.integrator.stats()`` counts them), so ``run(..., substeps=1)`` is the natural choice.
+
+    Attributes: scene; model (constants), control (held inputs), state (the current State; a new object
+    after each step, so read ``sim.state.particle_x`` afresh), dynamics, integrator, passes (in order);
+    body_contacts, particle_shapes, impacts, strain_limiter, emitters (those passes, or None); guard;
+    time [s]; step_count.
     """
 
-    def __init__(self, scene: Scene, integrator: str = "rk4", device: str | None = None,
-                 contact: str = "impulse", penalty_stiffness: float = 1.0e4, guard: bool = True,
-                 max_speed: float = 1.0e4, contact_margin: float = 0.005, rtol: float | None = None,
-                 atol: float | None = None, collisions: bool = True):
+    def __init__(self, scene: Scene, integrator="rk4", device: str | None = None, contact: str = "impulse",
+                 penalty_stiffness: float = 1.0e4, guard: bool = True, max_speed: float = 1.0e4,
+                 contact_margin: float = 0.005, collisions: bool = True):
         if not isinstance(scene, Scene):
             raise checks.fail("scene", scene, "expected a warp_sim.Scene")
         if scene.particle_count == 0 and scene.body_count == 0:
@@ -115,53 +60,26 @@ class Simulator:
         stiffness = checks.scalar("penalty_stiffness", penalty_stiffness, low=0.0, low_open=True)
         speed = checks.scalar("max_speed", max_speed, low=0.0, low_open=True)
         margin = checks.scalar("contact_margin", contact_margin, low=0.0)
-        self.model = Model(scene, resolve_device(device))
-        m = self.model
-        particle_planes = m.plane_count > 0 and m.particle_count > 0
-        penalty = [PlanePenalty(m, stiffness)] if contact == "penalty" and particle_planes else []
-        # bodies collide when there is something to hit; particles are pushed by bodies and colliders
         if not isinstance(collisions, bool):
             raise checks.fail("collisions", collisions, "expected True or False")
-        colliders = len(scene.colliders) if collisions else 0
-        bodies_collide = collisions and m.body_count > 0 and (
-            m.plane_count > 0 or colliders > 0 or m.body_count > 1 or m.particle_count > 0)
-        self.body_contacts = None
-        detection = None
-        if bodies_collide and contact == "impulse":
-            self.body_contacts = BodyContacts(m, margin=margin)
-            geometry, detection = self.body_contacts.geometry, self.body_contacts.detection
-        elif bodies_collide:
-            body_penalty = ContactPenalty(m, stiffness)
-            penalty.append(body_penalty)
-            geometry, detection = body_penalty.detection.geometry, body_penalty.detection
-        elif colliders and m.particle_count:
-            geometry = ContactGeometry(m)
-        self.particle_shapes = None
-        if m.particle_count and ((m.body_count and collisions) or colliders):
-            self.particle_shapes = ParticleShapeContacts(m, geometry, detection)
-        self.dynamics = Dynamics(m, penalty)
-        tolerances = {key: value for key, value in (("rtol", rtol), ("atol", atol)) if value is not None}
-        self.integrator = make_integrator(integrator, self.dynamics, **tolerances)
-        if self.body_contacts is not None:
-            self.body_contacts.position_response = self.integrator.position_response
-        self.impacts = PlaneImpacts(m) if contact == "impulse" and particle_planes else None
-        self.strain_limiter = None
-        if any(mesh.max_stretch is not None for mesh in scene.meshes):
-            from .strain import StrainLimiter
-
-            self.strain_limiter = StrainLimiter(self.model)
-        self.state = self.dynamics.initial_state()
+        if not isinstance(guard, bool):
+            raise checks.fail("guard", guard, "expected True or False")
+        parts = assemble(scene, resolve_device(device), integrator, contact, stiffness, margin, collisions)
+        self.scene = scene
+        self.model = parts.model
+        self.control = parts.control
+        self.dynamics = parts.dynamics
+        self.integrator = parts.integrator
+        self.passes = parts.passes
+        self.body_contacts = parts.body_contacts
+        self.particle_shapes = parts.particle_shapes
+        self.impacts = parts.impacts
+        self.strain_limiter = parts.strain_limiter
+        self.emitters = parts.emitters
+        self.state = self.dynamics.initial_state(scene)
         self._next = self.dynamics.new_state()
-        self.emitters = None
-        if scene.emitters:
-            from .emitters import EmitterPools
-
-            self.emitters = EmitterPools(self.model, scene)
+        if self.emitters is not None:
             self.emitters.initial_births(self.state, 0.0)
-            if self.emitters.touched is not None:
-                for contact_pass in (self.impacts, self.particle_shapes):
-                    if contact_pass is not None:
-                        contact_pass.touched = self.emitters.touched
         self.guard = Guard(self.model, self.dynamics.components, speed) if guard else None
         self.time = 0.0
         self.step_count = 0
@@ -197,9 +115,7 @@ class Simulator:
         if point is not None:
             x = self.state.body_x.numpy()[index].astype(np.float64)
             tau = tau + np.cross(checks.vec3("point", point) - x, F)
-        m = self.model
-        wp.copy(m.body_user_force, wp.array([F], dtype=m.vec3, device=m.device), dest_offset=index, count=1)
-        wp.copy(m.body_user_torque, wp.array([tau], dtype=m.vec3, device=m.device), dest_offset=index, count=1)
+        self.control.set_body_wrench(index, F, tau)
 
     def body_velocities(self):
         """(v [m/s], omega [rad/s]): the current linear and angular velocities of every body, world
@@ -207,8 +123,9 @@ class Simulator:
         m = self.model
         v = wp.empty(m.body_count, dtype=m.vec3, device=m.device)
         omega = wp.empty(m.body_count, dtype=m.vec3, device=m.device)
-        if self.dynamics.bodies is not None:
-            self.dynamics.bodies.velocities(self.state, v, omega)
+        bodies = self.dynamics.component("bodies")
+        if bodies is not None:
+            bodies.velocities(self.state, v, omega)
         return v, omega
 
     def body_rotations(self):
@@ -222,9 +139,7 @@ class Simulator:
     def step(self, dt: float, steps: int = 1) -> None:
         """Advance by ``steps`` steps of dt seconds each, then check the guards once."""
         h = checks.scalar("dt", dt, low=0.0, low_open=True)
-        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
-            raise checks.fail("steps", steps, "expected an integer >= 1")
-        for _ in range(steps):
+        for _ in range(checks.count("steps", steps)):
             self._advance(h)
         self.check()
 
@@ -238,28 +153,23 @@ class Simulator:
         return self.emitters.stats() if self.emitters is not None else []
 
     def _advance(self, h: float) -> None:
-        if self.emitters is not None:
-            self.emitters.check_step(h)
-        self.integrator.step(self.state, self._next, self.time, h)
-        if self.strain_limiter is not None:
-            self.strain_limiter.apply(self.state, self._next, h)
-        if self.body_contacts is not None:
-            self.body_contacts.apply(self.state, self._next, h)
-        if self.particle_shapes is not None:   # before the planes: a particle squeezed between a body and
-            self.particle_shapes.apply(self._next)   # the ground ends on the ground, not below it
-        if self.impacts is not None:
-            self.impacts.apply(self.state, self._next, h)
-        self.dynamics.post_step(self._next)
-        self.state, self._next = self._next, self.state
-        if self.emitters is not None:
-            self.emitters.after_step(self.state, self.time, h)
+        """One step of h seconds: the solver from state into the spare state, the passes on it, the swap, the guard."""
+        for step_pass in self.passes:
+            step_pass.check_step(h)
+        start, end = self.state, self._next
+        self.integrator.step(start, end, self.time, h)
+        for step_pass in self.passes:
+            step_pass.apply(start, end, self.time, h)
+        self.state, self._next = end, start
         self.step_count += 1
         self.time += h
         if self.guard is not None:
             self.guard.record(self.state, self.step_count, self.time)
 
-    def _frame_arrays(self) -> dict:
-        """The current state's arrays the stage writer takes, as numpy."""
+    def frame_arrays(self) -> dict:
+        """The current state's arrays a frame holds, as numpy: particle_x [m], particle_v [m/s], body_x [m],
+        body_q (x, y, z, w) where present; with emitters also particle_alive, particle_id, particle_radius [m],
+        particle_color (RGB) and particle_opacity of every slot."""
         names = [name for name, count in (("particle_x", self.model.particle_count),
                                           ("particle_v", self.model.particle_count),
                                           ("body_x", self.model.body_count), ("body_q", self.model.body_count))
@@ -272,43 +182,52 @@ class Simulator:
                           particle_opacity=pools.opacity.numpy())
         return arrays
 
-    def run(self, seconds: float, fps: float = 60.0, substeps: int = 8, usd=None, progress: bool = True,
-            chunk_frames: int | None = None):
-        """Simulate round(seconds * fps) frames of `substeps` steps each, writing each frame to USD.
+    def frames(self, seconds: float, fps: float = 60.0, substeps: int = 8):
+        """Simulate round(seconds * fps) frames of ``substeps`` steps each, yielding (frame, time, arrays).
 
-        Frame k (time code k) holds the state at run start + k / fps; frame 0 is the
-        state before the first step. usd: output path (.usdc, .usd or .usda) or None.
-        On divergence the stage keeps every frame before the bad one and
-        SimulationDiverged propagates; any other interruption leaves no file.
-        Returns the written path (a pathlib.Path), or None without usd.
-        """
+        Frame k holds the state at run start + k / fps (frame 0: the state before the first step); time is
+        the simulator's time then [s]; arrays are frame_arrays(). The guards are read at every frame, so a
+        divergence raises SimulationDiverged before its frame is yielded."""
         seconds = checks.scalar("seconds", seconds, low=0.0, low_open=True)
         fps = checks.scalar("fps", fps, low=0.0, low_open=True)
-        if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
-            raise checks.fail("substeps", substeps, "expected an integer >= 1")
+        substeps = checks.count("substeps", substeps)
         frames = int(round(seconds * fps))
         if frames < 1:
             raise checks.fail("seconds", seconds, f"covers no frame at fps={fps}; need seconds >= {0.5 / fps:g}")
-        from tqdm.auto import tqdm
+        return self._frame_loop(frames, fps, substeps)
 
-        from .stages import StageWriter
-
+    def _frame_loop(self, frames: int, fps: float, substeps: int):
         h = 1.0 / (fps * substeps)
         start_time = self.time
+        for frame in range(frames):
+            if frame > 0:
+                for _ in range(substeps):
+                    self._advance(h)
+                self.time = start_time + frame / fps
+                self.check()
+            yield frame, self.time, self.frame_arrays()
+        if self.emitters is not None:
+            self.emitters.warn_if_skipped()
+
+    def run(self, seconds: float, fps: float = 60.0, substeps: int = 8, usd=None, progress: bool = True,
+            chunk_frames: int | None = None):
+        """Simulate the frames of ``frames(seconds, fps, substeps)``, writing each to USD.
+
+        usd: output path (.usdc, .usd or .usda) or None. On divergence the stage keeps every frame
+        before the bad one and SimulationDiverged propagates; any other interruption leaves no file.
+        Returns the written path (a pathlib.Path), or None without usd.
+        """
+        frames = self.frames(seconds, fps, substeps)   # checks the arguments before a writer exists
+        total = int(round(float(seconds) * float(fps)))
         if chunk_frames is None:   # save often enough that unsaved samples stay below about 256 MB
             frame_bytes = 40 * self.model.particle_count + 28 * self.model.body_count + 1
             chunk_frames = int(min(240, max(1, 256 * 2**20 // frame_bytes)))
-        writer = StageWriter(usd, fps, stage_layout(self.model.scene), chunk_frames) if usd is not None else None
+        writer = StageWriter(usd, fps, stage_layout(self.scene), chunk_frames) if usd is not None else None
         try:
-            with tqdm(total=frames, unit="frame", disable=None if progress else True, desc="simulating") as bar:
-                for frame in range(frames):
-                    if frame > 0:
-                        for _ in range(substeps):
-                            self._advance(h)
-                        self.time = start_time + frame / fps
-                        self.check()
+            with tqdm(total=total, unit="frame", disable=None if progress else True, desc="simulating") as bar:
+                for frame, _, arrays in frames:
                     if writer is not None:
-                        writer.write_frame(frame, **self._frame_arrays())
+                        writer.write_frame(frame, **arrays)
                     bar.update(1)
         except SimulationDiverged:
             if writer is not None:
@@ -318,7 +237,4 @@ class Simulator:
             if writer is not None:
                 writer.abort()
             raise
-        if self.emitters is not None:
-            self.emitters.warn_if_skipped()
         return writer.close() if writer is not None else None
-

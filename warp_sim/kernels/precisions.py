@@ -11,7 +11,7 @@ import warp as wp
 
 VECTORS = {"x_start", "P_start", "L_start", "x_end", "P_end", "L_end", "anchor1", "anchor2", "normal", "impulse_t",
            "collision_t", "v", "w", "v_collided", "w_collided", "x", "P", "L", "stored_t", "body_x", "body_P",
-           "body_L", "body_f", "body_t"}
+           "body_L", "body_f", "body_t", "plane_normal", "force"}
 QUATERNIONS = {"q_start", "q_end", "q", "body_q"}
 MATRICES = {"inv_inertia", "inv_inertia_world", "body_inv_inertia"}
 

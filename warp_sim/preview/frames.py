@@ -11,8 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import checks
-from ..rotations import quat_to_matrix
+from ..simulator import Simulator
+from ..stages import stage_layout
+from ..util import checks
+from ..util.rotations import quat_to_matrix
 
 #: Default colour of geometry without a displayColor (linear RGB, 0..1).
 DEFAULT_COLOR = (0.6, 0.6, 0.6)
@@ -235,9 +237,7 @@ class _SimulatorLayout:
     """What a Simulator's scene draws, prepared once: the same layout as its USD stage."""
 
     def __init__(self, sim, segments: int = 16):
-        from ..simulator import stage_layout
-
-        layout = stage_layout(sim.model.scene)
+        layout = stage_layout(sim.scene)
         self.groups = layout.points_groups
         self.springs = layout.springs
         self.meshes = [(m.start, m.start + _fan(m.face_counts, m.face_indices), np.asarray(m.color, dtype=np.float64))
@@ -282,8 +282,6 @@ class _SimulatorLayout:
 
 
 def _check_simulator(sim):
-    from ..simulator import Simulator
-
     if not isinstance(sim, Simulator):
         raise checks.fail("sim", sim, "expected a warp_sim.Simulator")
 
@@ -292,7 +290,7 @@ def snapshot(sim) -> Recording:
     """A one-frame Recording of a Simulator's current state (nothing is stepped)."""
     _check_simulator(sim)
     layout = _SimulatorLayout(sim)
-    return Recording([layout.snapshot(sim._frame_arrays(), sim.time)], layout.static, layout.planes)
+    return Recording([layout.snapshot(sim.frame_arrays(), sim.time)], layout.static, layout.planes)
 
 
 def record(sim, seconds: float, fps: float = 30.0, substeps: int = 8, callback=None) -> Recording:
@@ -302,21 +300,12 @@ def record(sim, seconds: float, fps: float = 30.0, substeps: int = 8, callback=N
     seconds [s], fps [frames per second]; callback(sim, frame) is called after each frame is taken (e.g.
     to measure something). Returns a Recording."""
     _check_simulator(sim)
-    seconds = checks.scalar("seconds", seconds, low=0.0, low_open=True)
-    fps = checks.scalar("fps", fps, low=0.0, low_open=True)
-    if isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer)) or substeps < 1:
-        raise checks.fail("substeps", substeps, "expected an integer >= 1")
-    count = int(round(seconds * fps))
-    if count < 1:
-        raise checks.fail("seconds", seconds, f"covers no frame at fps={fps}; need seconds >= {0.5 / fps:g}")
+    start = sim.time
+    steps = sim.frames(seconds, fps, substeps)
     layout = _SimulatorLayout(sim)
-    start, h = sim.time, 1.0 / (fps * substeps)
     frames = []
-    for frame in range(count):
-        if frame > 0:
-            sim.step(h, steps=int(substeps))
-            sim.time = start + frame / fps
-        frames.append(layout.snapshot(sim._frame_arrays(), sim.time - start))
+    for frame, time, arrays in steps:
+        frames.append(layout.snapshot(arrays, time - start))
         if callback is not None:
             callback(sim, frame)
     return Recording(frames, layout.static, layout.planes, fps)

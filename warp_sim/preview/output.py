@@ -12,7 +12,7 @@ import zlib
 
 import numpy as np
 
-from .. import checks
+from ..util import checks
 
 # ---------------------------------------------------------------------------------------------------------------
 # PNG

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import checks
+from ..simulator import Simulator
+from ..util import checks
 from .frames import _BOX_CORNERS, Recording, Snapshot, _Plane, read_usd, record, snapshot
 
 #: Triangles and discs whose pixel bounding boxes add up to more than this are drawn in chunks.
@@ -367,8 +368,6 @@ class _Renderer:
 
 
 def _recording(source, seconds, fps, substeps, frames) -> Recording:
-    from ..simulator import Simulator
-
     if isinstance(source, Recording):
         return source
     if isinstance(source, Snapshot):

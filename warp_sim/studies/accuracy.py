@@ -18,25 +18,29 @@ from functools import lru_cache
 import numpy as np
 import warp as wp
 
-from ..guards import SimulationDiverged
-from ..integrators import INTEGRATORS
+from ..core.guards import SimulationDiverged
 from ..simulator import Simulator, resolve_device
+from ..solvers import INTEGRATORS
+from ..util import checks
 from . import report
-from .common import COSTLY, count, is_adaptive, names, positive_list
+from .common import COSTLY, is_adaptive, names, positive_list
+from .plots import work_precision
 from .problems import PENDULUM_PERIOD, PROBLEMS, flip_period, intermediate_axis_period, swing_period
-
-REFINE, QUICK_REFINE = 4, 2   # reference runs: rk4 at the finest step / REFINE
-#: solvers whose step costs about 20x an explicit one (a CG solve): their step counts are halved until the
-#: finest is at most COSTLY_STEPS (full) or QUICK_COSTLY_STEPS (quick)
-COSTLY_STEPS, QUICK_COSTLY_STEPS = 1024, 256
-TOLERANCES = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
-QUICK_TOLERANCES = (1e-3, 1e-5, 1e-7)
-ATOL_PER_RTOL = 1e-2           # adaptive runs: atol = rtol x 0.01 (in the state's SI units)
-ADAPTIVE_CALLS = 10            # adaptive runs: Simulator.step calls per run (each to an exact time)
-UNTIMED = 2                    # the first steps (calls) of a run record the launches of both state buffers
-REPEAT_SECONDS, QUICK_REPEAT_SECONDS = 1.0, 0.05   # a point stops repeating once its runs took this long [s]
-FLOOR, CEILING = 1e-12, 0.1    # errors outside (FLOOR, CEILING) are rounding or not asymptotic
-TARGETS = (1e-2, 1e-4, 1e-6, 1e-8)
+from .settings import (
+    ADAPTIVE_CALLS,
+    ATOL_PER_RTOL,
+    CEILING,
+    COSTLY_STEPS,
+    FLOOR,
+    QUICK_COSTLY_STEPS,
+    QUICK_REFINE,
+    QUICK_REPEAT_SECONDS,
+    QUICK_TOLERANCES,
+    REFINE,
+    REPEAT_SECONDS,
+    TOLERANCES,
+    UNTIMED,
+)
 
 
 def _sync(device) -> None:
@@ -129,8 +133,6 @@ class AccuracyResult(report.Report):
 
     def plot(self, directory) -> list:
         """Work-precision plots, one PNG per problem, into ``directory``; [] without matplotlib."""
-        from .plots import work_precision
-
         return work_precision(self, directory)
 
 
@@ -152,7 +154,7 @@ def accuracy(problems=None, integrators=None, steps=None, quick=False, device="c
         solvers = fixed[:at] + [n for n in solvers if is_adaptive(n)] + fixed[at:]
     sizes = positive_list("steps", steps, "seconds (step sizes)")
     tols = positive_list("tolerances", tolerances, "tolerances") or list(QUICK_TOLERANCES if quick else TOLERANCES)
-    repeats = count("repeats", repeats)
+    repeats = checks.count("repeats", repeats)
     device = resolve_device(device)
     cap = QUICK_COSTLY_STEPS if quick else COSTLY_STEPS
     budget = QUICK_REPEAT_SECONDS if quick else REPEAT_SECONDS
@@ -185,9 +187,9 @@ def accuracy(problems=None, integrators=None, steps=None, quick=False, device="c
         if log is not None:
             found = ", ".join(o["integrator"] + " " + report.number(o["order"]) for o in orders[-len(solvers):])
             log(f"{name}: orders {found} ({time.perf_counter() - started:.0f} s)")
-    checks = [] if quick else closed_form_checks(chosen, device)
+    closed_forms = [] if quick else closed_form_checks(chosen, device)
     settings = {"quick": quick, "device": device, "repeats": repeats, "tolerances": tols}
-    return AccuracyResult(rows, orders, time.perf_counter() - started, settings, checks)
+    return AccuracyResult(rows, orders, time.perf_counter() - started, settings, closed_forms)
 
 
 def closed_form_checks(chosen: list, device: str) -> list[dict]:

@@ -13,8 +13,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..fields import Attractor
-from ..scene import Scene
+from ..scene import Attractor, Scene
 from .problems import G, pendulum_period
 
 STRETCH = 1e-6          # [m] initial perturbations: far inside the linear range, so growth cannot saturate early

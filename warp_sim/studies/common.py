@@ -5,8 +5,8 @@ import inspect
 
 import numpy as np
 
-from .. import checks
-from ..integrators import INTEGRATORS
+from ..solvers import INTEGRATORS
+from ..util import checks
 
 #: solvers whose step costs about 20x an explicit one on these small scenes (a conjugate-gradient solve):
 #: the studies give them fewer steps per run (each study says how many)
@@ -46,10 +46,3 @@ def positive_list(argument: str, values, what: str) -> list[float] | None:
             raise checks.fail(argument, values, f"every entry must be a finite number of {what} > 0; "
                                                 f"entry {i} is {value!r}")
     return [float(value) for value in listed]
-
-
-def count(argument: str, value, low: int = 1) -> int:
-    """An integer >= low (not a bool)."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-        raise checks.fail(argument, value, f"expected an integer >= {low}")
-    return int(value)

@@ -4,6 +4,9 @@ from __future__ import annotations
 import math
 import pathlib
 
+from .cases import CASES
+from .settings import THEORY
+
 
 def _figure(width: float = 6.4, height: float = 4.8):
     """A matplotlib Figure with an Agg canvas (no pyplot: no backend or GUI state is touched), or None."""
@@ -60,9 +63,6 @@ def work_precision(result, directory) -> list:
 def stability_plots(result, directory) -> list:
     """stability_springs.png (largest stable h against ks/m, with theory), stability_cases.png (the
     extreme cases), stability_damping.png (implicit Euler's damping per step against theory)."""
-    from .cases import CASES
-    from .stability import THEORY
-
     paths = []
     solvers = list(dict.fromkeys(r["integrator"] for r in result.rows))
     springs = [r for r in result.rows if CASES[r["case"]].group == "spring"]

@@ -15,10 +15,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..fields import Attractor
-from ..rotations import quat_to_matrix
-from ..scene import Scene
-from ..shapes import PointMasses
+from ..scene import Attractor, PointMasses, Scene
+from ..simulator import Simulator
+from ..util.rotations import quat_to_matrix
 
 G = 9.81                   # [m/s^2]
 PENDULUM_PERIOD = 4.8935242741   # [s] L = 1 m, g = 9.81, released at 170 degrees (closed form below)
@@ -78,7 +77,7 @@ def body_frame_omega(sim) -> np.ndarray:
     """omega [rad/s] of body 0 in its own frame: I_body^-1 R^T L."""
     q = sim.state.body_q.numpy()[0].astype(np.float64)
     L = sim.state.body_L.numpy()[0].astype(np.float64)
-    return np.linalg.solve(sim.model.scene.bodies[0].mass.inertia, quat_to_matrix(q).T @ L)
+    return np.linalg.solve(sim.scene.bodies[0].mass.inertia, quat_to_matrix(q).T @ L)
 
 
 # projectile -----------------------------------------------------------------------------------------
@@ -160,8 +159,6 @@ def flip_period(integrator: str = "rk4", h: float = 1e-3, device: str = "cpu", e
     """The tumbling body's flip period [s] as simulated: omega_2 (body frame) crosses zero at each flip,
     and successive crossings are half a period apart; twice the time from the first downward crossing
     to the next upward one, each interpolated linearly between samples ``every`` steps apart."""
-    from ..simulator import Simulator
-
     sim = Simulator(_tumbling_body(), integrator=integrator, device=device)
     times, values, crossings = [0.0], [body_frame_omega(sim)[1]], []
     while len(crossings) < 2 and sim.time < 1.5 * intermediate_axis_period():
@@ -180,8 +177,6 @@ def swing_period(stiffness: float = ROD_K, integrator: str = "rk4", h: float = 1
     """The spring-rod pendulum's period [s] as simulated, rod stiffness [N/m]: its angular velocity about
     the pivot changes sign at each turning point, half a period apart; the time of the second change,
     interpolated linearly."""
-    from ..simulator import Simulator
-
     sim = Simulator(_pendulum(stiffness), integrator=integrator, device=device)
 
     def spin() -> float:

@@ -5,6 +5,22 @@ import csv
 import math
 import pathlib
 
+from .cases import CASES
+from .problems import PROBLEMS
+from .settings import (
+    BISECTIONS,
+    BLOWUP,
+    CEILING,
+    COSTLY_DIVISOR,
+    COSTLY_STEPS,
+    FLOOR,
+    GROWTH,
+    H_MAX,
+    QUICK_BISECTIONS,
+    QUICK_COSTLY_STEPS,
+    TARGETS,
+)
+
 
 class Report:
     """What both study results share: ``rows`` written as CSV, and a markdown report written from the
@@ -85,9 +101,6 @@ def _order_text(order: dict) -> str:
 
 def accuracy_markdown(result, images, path) -> str:
     """The accuracy report: how it ran, observed orders, and per problem the cheapest integrator per error."""
-    from .accuracy import CEILING, COSTLY_STEPS, FLOOR, QUICK_COSTLY_STEPS, TARGETS
-    from .problems import PROBLEMS
-
     settings = result.settings
     solvers = list(dict.fromkeys(o["integrator"] for o in result.orders))
     problems = list(dict.fromkeys(o["problem"] for o in result.orders))
@@ -169,9 +182,6 @@ def _winner(rows, solvers, target) -> str:
 
 def stability_markdown(result, images, path) -> str:
     """The stability report: the ks/m sweep against theory, the extreme cases, implicit Euler's damping."""
-    from .cases import CASES
-    from .stability import BISECTIONS, BLOWUP, COSTLY_DIVISOR, GROWTH, H_MAX, QUICK_BISECTIONS
-
     settings = result.settings
     solvers = list(dict.fromkeys(r["integrator"] for r in result.rows))
     rows = {(r["case"], r["integrator"]): r for r in result.rows}

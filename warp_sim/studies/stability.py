@@ -14,25 +14,28 @@ import math
 import time
 from dataclasses import dataclass, field
 
-from .. import checks
-from ..integrators import INTEGRATORS
 from ..simulator import Simulator, resolve_device
+from ..solvers import INTEGRATORS
+from ..util import checks
 from . import report
 from .cases import CASES, QUICK_SPRING_RATIOS, SPRING_RATIOS, spring_name
 from .common import COSTLY, is_adaptive, names
-
-GROWTH = 2.0            # unstable: the second half's largest size > GROWTH x the first half's
-BLOWUP = 1e4            # or any size > BLOWUP x the initial one (so fast it could saturate in the first half)
-STEPS, QUICK_STEPS = 2000, 300          # steps per run of a case without a duration
-MAX_STEPS, QUICK_MAX_STEPS = 20000, 5000   # the most steps a run of a case with a duration may take
-COSTLY_DIVISOR = 16     # COSTLY solvers run 16x fewer steps per run (their h range shrinks accordingly)
-BISECTIONS, QUICK_BISECTIONS = 9, 8     # final bracket 4^(1/512) (0.27 %) and 4^(1/256) (0.54 %)
-H_MAX = 100.0           # the search stops at h_max = H_MAX / omega (or the case's own h_max)
-SAMPLES = 200           # size samples per run of a case with a duration (every step without one)
-DAMPING_STEPS = (0.1, 1.0, 10.0, 100.0)   # omega h at which implicit Euler's numerical damping is measured
-#: theory for an undamped linear oscillator: the largest stable omega h (None: no limit, it grows at any step)
-THEORY = {"euler": None, "midpoint": None, "rk4": 2.0 * math.sqrt(2.0), "symplectic_euler": 2.0, "verlet": 2.0,
-          "implicit_euler": math.inf}
+from .plots import stability_plots
+from .settings import (
+    BISECTIONS,
+    BLOWUP,
+    COSTLY_DIVISOR,
+    DAMPING_STEPS,
+    GROWTH,
+    H_MAX,
+    MAX_STEPS,
+    QUICK_BISECTIONS,
+    QUICK_MAX_STEPS,
+    QUICK_STEPS,
+    SAMPLES,
+    STEPS,
+    THEORY,
+)
 
 
 def run_length_limit(integrator: str, steps: int, growth: float = GROWTH) -> float | None:
@@ -138,8 +141,6 @@ class StabilityResult(report.Report):
 
     def plot(self, directory) -> list:
         """The limits against ks/m and the extreme cases as PNGs into ``directory``; [] without matplotlib."""
-        from .plots import stability_plots
-
         return stability_plots(self, directory)
 
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from . import checks
+from ..util import checks
 
 DEFAULT_DENSITY = 1000.0  # [kg/m^3]
 SINGULAR_RATIO = 1e-12  # smallest / largest principal moment at or below which a body cannot rotate

@@ -97,6 +97,13 @@ def indices(name: str, value, count: int, shape: tuple) -> np.ndarray:
     return array
 
 
+def count(name: str, value, low: int = 1) -> int:
+    """A whole number >= low: a Python or numpy integer, not a bool and not a float."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        raise fail(name, value, f"expected an integer >= {low}")
+    return int(value)
+
+
 def choice(name: str, value, options) -> str:
     """One of the named options."""
     if value not in options:

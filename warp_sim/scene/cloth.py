@@ -43,8 +43,9 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+import trimesh
 
-from . import checks
+from ..util import checks
 
 FAMILIES = ("structural", "shear", "bend")
 DEFAULT_CLOTH_DENSITY = 0.1     # [kg/m^2], a light cotton
@@ -197,8 +198,6 @@ def load_mesh(mesh, name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
     edges and zero-area faces. Vertices at the same position not joined by any face (a seam
     split by the file's UVs, or a triangle soup) give a UserWarning: they move independently.
     """
-    import trimesh
-
     if isinstance(mesh, (str, os.PathLike)):
         if not os.path.isfile(mesh):
             raise checks.fail(name, mesh, "no such file")

@@ -35,15 +35,14 @@ in place on the end state of a step.
 """
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 import warp as wp
 
-from . import checks
-from .aerodynamics import mesh_parameter
-from .kernels import cloth as cloth_kernels
-from .model import Model, State
+from ..core.model import Model
+from ..core.protocols import Pass
+from ..core.state import State
+from ..kernels import cloth as cloth_kernels
+from ..util import checks
 
 #: the relative tolerance on the limit by precision: float32 lengths of millimetre springs a metre
 #: from the origin carry rounding errors of about 1e-5 of their length, so 1e-6 is out of reach there
@@ -69,7 +68,7 @@ def colour_springs(pairs: np.ndarray, particle_count: int) -> np.ndarray:
     return colours
 
 
-class StrainLimiter:
+class StrainLimiter(Pass):
     """Provot strain limiting of the structural and shear springs of every mesh with max_stretch.
 
     max_iterations: the most sweeps that move something per apply (integer >= 1);
@@ -86,24 +85,20 @@ class StrainLimiter:
     ``constraint_count`` springs are limited, in ``colour_count`` colours.
     """
 
-    def __init__(self, model: Model, max_iterations: int = 50, tolerance: float | None = None,
+    def __init__(self, model: Model, scene, max_iterations: int = 50, tolerance: float | None = None,
                  relaxation: float = 1.9):
-        if isinstance(max_iterations, bool) or not isinstance(max_iterations, numbers.Integral) \
-                or max_iterations < 1:
-            raise checks.fail("max_iterations", max_iterations, "expected an integer >= 1")
-        self.max_iterations = int(max_iterations)
-        self.tolerance = DEFAULT_TOLERANCE[model.scene.precision] if tolerance is None else checks.scalar(
+        self.max_iterations = checks.count("max_iterations", max_iterations)
+        self.tolerance = DEFAULT_TOLERANCE[model.precision] if tolerance is None else checks.scalar(
             "tolerance", tolerance, low=0.0)
         self.relaxation = checks.scalar("relaxation", relaxation)
         if not 1.0 <= self.relaxation < 2.0:
             raise checks.fail("relaxation", relaxation, "must be >= 1.0 and < 2 (1: plain Gauss-Seidel)")
         self.model = model
-        scene = model.scene
         ids, limits = [np.zeros(0, dtype=np.int64)], [np.zeros(0)]
         for mesh in scene.meshes:
             if mesh.max_stretch is None:
                 continue
-            tau = mesh_parameter(mesh, "max_stretch", low=0.0, low_open=True)
+            tau = mesh.parameter("max_stretch", low=0.0, low_open=True)
             springs = getattr(mesh, "springs", None) or {}
             for family in FAMILIES:
                 if family not in springs or len(np.asarray(springs[family])) == 0:
@@ -157,13 +152,13 @@ class StrainLimiter:
         m = self.model
         m.launch(cloth_kernels.reset_strain_counters, 1, [self._violations, self._max_strain, m.scalar(-1.0)])
 
-    def apply(self, state_start: State, state_end: State, h: float) -> None:
-        """Limit the springs of ``state_end`` in place (positions and velocities); h: the step [s].
-        ``state_start`` is not read (the signature of the passes run after a step)."""
+    def apply(self, start: State, end: State, t: float, h: float) -> None:
+        """Limit the springs of ``end`` in place (positions and velocities); h: the step [s].
+        ``start`` is not read."""
         if self.constraint_count == 0:
             return
         m = self.model
-        x, v = state_end.particle_x, state_end.particle_v
+        x, v = end.particle_x, end.particle_v
         tolerance, inv_h = m.scalar(self.tolerance), m.scalar(1.0 / h)
         self._measured = True
         for sweep in range(self.max_iterations):

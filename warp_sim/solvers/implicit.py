@@ -39,9 +39,14 @@ import warp as wp
 import warp.optim.linear as wp_linear
 import warp.sparse as wp_sparse
 
-from . import checks
-from .integrators import Partitioned
-from .kernels import implicit as implicit_kernels
+try:   # a private class of Warp's CG, replaced on the CPU when it has the expected form (see below)
+    from warp._src.optim.linear import TiledDot
+except ImportError:   # another Warp version: CG keeps its own dot products
+    TiledDot = None
+
+from ..kernels import implicit as implicit_kernels
+from ..util import checks
+from .partitioned import Partitioned
 
 PRECONDITIONERS = ("block_jacobi", "diag", "none")
 
@@ -52,8 +57,7 @@ class ImplicitEuler(Partitioned):
     First order, unconditionally stable for the springs (at any step a linear spring
     oscillator loses amplitude by 1 / sqrt(1 + h^2 w^2) per step: numerical damping).
 
-    Options (pass them by making the integrator yourself, e.g.
-    ``sim.integrator = ImplicitEuler(sim.dynamics, tolerance=1e-8)``):
+    Options (``Simulator(scene, integrator=ImplicitEuler(tolerance=1e-8))``):
     tolerance: relative residual of the conjugate gradient solve, 0 < tolerance < 1;
     absolute_tolerance [N s] >= 0: CG stops once |b - A dv| <= max(tolerance |b|, absolute_tolerance)
     (or below Warp's floor, eps^(9/4) of the precision); max_iterations >= 1: the cap on CG
@@ -74,24 +78,32 @@ class ImplicitEuler(Partitioned):
     name, order = "implicit_euler", 1
     position_response = 1.0
 
-    def __init__(self, dynamics, tolerance: float = 1.0e-6, max_iterations: int = 200,
+    def __init__(self, tolerance: float = 1.0e-6, max_iterations: int = 200,
                  preconditioner: str = "block_jacobi", warm_start: bool = False, check_every: int = 1,
                  absolute_tolerance: float = 0.0):
+        super().__init__()
         self.tolerance = checks.scalar("tolerance", tolerance, low=0.0, low_open=True)
         if self.tolerance >= 1.0:
             raise checks.fail("tolerance", tolerance, "must be > 0 and < 1 (a relative residual)")
         self.absolute_tolerance = checks.scalar("absolute_tolerance", absolute_tolerance, low=0.0)
-        self.max_iterations = _count("max_iterations", max_iterations)
-        self.check_every = _count("check_every", check_every)
+        self.max_iterations = checks.count("max_iterations", max_iterations)
+        self.check_every = checks.count("check_every", check_every)
         self.preconditioner = checks.choice("preconditioner", preconditioner, PRECONDITIONERS)
-        self.warm_start = bool(warm_start)
-        super().__init__(dynamics)
-        self.model = dynamics.model
+        if not isinstance(warm_start, bool):
+            raise checks.fail("warm_start", warm_start, "expected True or False")
+        self.warm_start = warm_start
         self.last_iterations = 0
         self.last_residual = 0.0
         self.last_tolerance = 0.0
         self.last_converged = True
         self.unconverged_solves = 0
+
+    def __repr__(self) -> str:
+        return f"ImplicitEuler(tolerance={self.tolerance:g}, max_iterations={self.max_iterations})"
+
+    def allocate(self, dynamics):
+        super().allocate(dynamics)
+        self.model = dynamics.model
         if self.model.particle_count:
             self._build_system()
 
@@ -105,7 +117,7 @@ class ImplicitEuler(Partitioned):
         self.mat33 = m.mat33
         rows, cols = [np.arange(n)], [np.arange(n)]
         if springs:
-            pairs = m.scene.spring_array("pairs").astype(np.int64)
+            pairs = m.spring_pairs.numpy().astype(np.int64)
             p1, p2 = pairs[:, 0], pairs[:, 1]
             rows.append(np.stack([p1, p2, p1, p2], axis=1).ravel())   # triplet N + 4 s + (0, 1, 2, 3)
             cols.append(np.stack([p1, p2, p2, p1], axis=1).ravel())
@@ -164,7 +176,7 @@ class ImplicitEuler(Partitioned):
         m, scalar = self.model, self.scalar
         n = m.particle_count
         self.launch(implicit_kernels.particle_system, n,
-                    [self.k.particle_v, m.particle_inv_mass, scalar(h), scalar(h * m.scene.drag),
+                    [self.k.particle_v, m.particle_inv_mass, scalar(h), scalar(h * m.drag_value),
                      int(self.warm_start), self.diagonal_triplets, self.rhs, self.dv])
         if m.spring_count:
             self.launch(implicit_kernels.spring_system, m.spring_count,
@@ -199,9 +211,7 @@ def _small_cpu_dot_tiles(solver, length: int, scalar, device) -> None:
     a private attribute of ``warp.optim.linear.CG`` (``_tiled_dot``, a ``TiledDot``) when it
     has the expected form, and leaves the solver as it is otherwise.
     """
-    try:
-        from warp._src.optim.linear import TiledDot
-    except ImportError:
+    if TiledDot is None:
         return
     current = getattr(solver, "_tiled_dot", None)
     if not isinstance(current, TiledDot) or current.batch_offsets is not None or current.max_column_count != 2:
@@ -209,8 +219,3 @@ def _small_cpu_dot_tiles(solver, length: int, scalar, device) -> None:
     solver._tiled_dot = TiledDot(max_length=length, scalar_type=scalar, tile_size=CPU_DOT_TILE, device=device,
                                  max_column_count=2)
 
-
-def _count(name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise checks.fail(name, value, "expected an integer >= 1")
-    return int(value)

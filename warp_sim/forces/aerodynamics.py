@@ -32,24 +32,17 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from . import checks
-from .dynamics import Forces, ForceTerm
-from .kernels import cloth as cloth_kernels
-from .model import Model, State
-
-
-def mesh_parameter(mesh, key: str, **bounds) -> float:
-    """The SurfaceMesh value ``key`` checked by checks.scalar(**bounds); the error names the mesh too."""
-    try:
-        return checks.scalar(key, getattr(mesh, key), **bounds)
-    except ValueError as error:
-        raise ValueError(f"{error} (mesh {mesh.name!r})") from None
+from ..core.model import Model
+from ..core.protocols import Forces, ForceTerm
+from ..core.state import State
+from ..kernels import cloth as cloth_kernels
+from ..util import checks
 
 
 class AeroForces(ForceTerm):
     """Drag and lift on every triangle of every mesh whose drag or lift is non-zero: one launch.
 
-    Per-triangle arrays are built once from ``model.scene.meshes``: ``triangles``
+    Per-triangle arrays are built once from ``meshes`` (the scene's SurfaceMeshes): ``triangles``
     (vec3i, global particle indices), ``drag`` and ``lift`` (1/2 rho C_D and
     1/2 rho C_L of the triangle's mesh [kg/m^3]), so meshes may differ. Raises
     ValueError for a negative drag or lift, an air_density <= 0, or triangles that are
@@ -58,13 +51,13 @@ class AeroForces(ForceTerm):
 
     targets = frozenset({"particles"})
 
-    def __init__(self, model: Model):
+    def __init__(self, model: Model, meshes: list):
         self.model = model
         triangles, drag, lift = [np.zeros((0, 3), dtype=np.int64)], [np.zeros(0)], [np.zeros(0)]
-        for mesh in model.scene.meshes:
-            c_drag = mesh_parameter(mesh, "drag", low=0.0)
-            c_lift = mesh_parameter(mesh, "lift", low=0.0)
-            rho = mesh_parameter(mesh, "air_density", low=0.0, low_open=True)
+        for mesh in meshes:
+            c_drag = mesh.parameter("drag", low=0.0)
+            c_lift = mesh.parameter("lift", low=0.0)
+            rho = mesh.parameter("air_density", low=0.0, low_open=True)
             if c_drag == 0.0 and c_lift == 0.0:
                 continue
             try:

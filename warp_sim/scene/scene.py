@@ -5,8 +5,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import checks
-from .rotations import quat_to_matrix
+from ..util import checks
+from ..util.rotations import quat_to_matrix
+from . import cloth
+from .emitters import make_emitter
+from .fields import Field
 from .shapes import MassProperties, Shape
 
 PRECISIONS = ("float32", "float64")
@@ -37,12 +40,16 @@ class Plane:
 class SurfaceMesh:
     """A cloth or soft body: particles start .. start + count - 1 drawn as one UsdGeom.Mesh.
 
-    face_counts (F,) and face_indices (sum of face_counts,): the faces, with indices
-    local to the mesh (0 .. count - 1); triangles (T, 3): the faces split into
-    triangles, global particle indices (for aerodynamics); springs: global spring
-    indices of its structural, shear and bend families (dict of arrays); drag and
-    lift: aerodynamic coefficients (0: none); air_density [kg/m^3]; max_stretch:
-    the strain limit of its structural and shear springs (e.g. 0.1 = 10 %), or None.
+    name: its USD prim name
+    start, count: its first global particle index and its particle count
+    face_counts: (F,) vertices per face
+    face_indices: (sum of face_counts,) vertex indices local to the mesh (0 .. count - 1)
+    triangles: (T, 3) the faces split into triangles, global particle indices (for aerodynamics)
+    springs: global spring indices of its "structural", "shear" and "bend" families (dict of arrays)
+    color: RGB in [0, 1]
+    drag, lift: aerodynamic coefficients C_D, C_L (dimensionless; 0: none)
+    air_density: rho [kg/m^3]
+    max_stretch: the strain limit of its structural and shear springs (0.1 = 10 %), or None
     """
     name: str
     start: int
@@ -56,6 +63,13 @@ class SurfaceMesh:
     lift: float = 0.0
     air_density: float = 1.2
     max_stretch: float | None = None
+
+    def parameter(self, key: str, **bounds) -> float:
+        """The value of field ``key`` checked by checks.scalar(**bounds); the error names the mesh too."""
+        try:
+            return checks.scalar(key, getattr(self, key), **bounds)
+        except ValueError as error:
+            raise ValueError(f"{error} (mesh {self.name!r})") from None
 
 
 @dataclass(frozen=True)
@@ -213,8 +227,6 @@ class Scene:
         averaged with each plane's, as for particles. kill_planes: ((normal, offset), ...),
         particles with normal . x < offset die; kill_on_contact: die on touching a plane.
         """
-        from .emitters import make_emitter
-
         label = name or f"emitter{len(self.emitters)}"
         emitter = make_emitter(len(self.emitters), self.particle_count, label, rate, lifetime, position, direction,
                                spread, speed, shape, radius, half_extents, mesh, size, mass, color, opacity,
@@ -304,8 +316,6 @@ class Scene:
         keeps a cloth lying on the ground from coinciding with it), restitution, friction, name
         and color as for add_particles. Recorded in ``scene.meshes`` with the quads as faces.
         """
-        from . import cloth
-
         topology = cloth.grid_cloth(resolution, size)
         nx, ny = cloth.grid_resolution(resolution)
         masses = cloth.total_masses(topology.weights, mass, density, cloth.DEFAULT_CLOTH_DENSITY, "m^2")
@@ -331,8 +341,6 @@ class Scene:
         third of its mass to each corner. pinned: vertex indices. Every other argument as for
         add_cloth_grid. Recorded in ``scene.meshes`` with the mesh's triangles as faces.
         """
-        from . import cloth
-
         vertices, faces = cloth.load_mesh(mesh)
         topology = cloth.mesh_cloth(vertices, faces)
         masses = cloth.total_masses(topology.weights, mass, density, cloth.DEFAULT_CLOTH_DENSITY, "m^2")
@@ -362,8 +370,6 @@ class Scene:
         [m/s]: initial. radius, restitution, friction, name, color as for add_cloth_grid.
         Recorded in ``scene.meshes`` (springs: "structural" = edges, "bend" = two-ring, "shear" empty).
         """
-        from . import cloth
-
         vertices, faces = cloth.load_mesh(mesh)
         topology = cloth.soft_mesh(vertices, faces, distribution, internal)
         masses = cloth.total_masses(topology.weights, mass, None, None, "")
@@ -379,8 +385,6 @@ class Scene:
                      velocity, stiffness, damping, radius, restitution, friction, name, color, aero) -> np.ndarray:
         """Place a cloth.Topology, check the remaining options, then add its particles, springs and SurfaceMesh
         (nothing is added unless every check passes)."""
-        from . import cloth
-
         ks, kd = cloth.family_values("stiffness", stiffness), cloth.family_values("damping", damping)
         q = checks.unit_quaternion("orientation", orientation)
         x = topology.vertices @ quat_to_matrix(q).T + checks.vec3("position", position)
@@ -503,8 +507,6 @@ class Scene:
     def add_field(self, field) -> int:
         """Add a force field acting on every particle (ws.Attractor, ws.Vortex, ws.Turbulence);
         returns its index. Fields accelerate particles independently of their mass."""
-        from .fields import Field
-
         if not isinstance(field, Field):
             raise checks.fail("field", field, "expected a warp_sim force field: Attractor, Vortex or Turbulence")
         self.fields.append(field)

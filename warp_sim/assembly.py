@@ -1,0 +1,91 @@
+"""The one place that decides, from a Scene, which components, force terms and passes a simulation has.
+
+Each part is one line below: its constructor, and the condition under which the scene needs it.
+A part the scene does not need is never built, so its kernels are never compiled (Warp compiles
+per module). Adding a force term or a pass is its module plus one line here (docs/architecture.md).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .core.components import Particles, RigidBodies
+from .core.control import Control
+from .core.dynamics import Dynamics
+from .core.model import Model
+from .core.protocols import Forces, Pass
+from .detection import ContactGeometry, Detection
+from .forces import AeroForces, BodyPenalty, FieldForces, PlanePenalty, Springs
+from .passes import BodyContacts, ComponentProjection, EmitterPools, ParticleShapeContacts, PlaneImpacts, StrainLimiter
+from .scene import Scene
+from .solvers import Integrator, make_integrator
+
+RESPONSES = ("impulse", "penalty")
+
+
+@dataclass
+class Assembly:
+    """What a Simulator runs: the model, the user's controls, the ODE right-hand side, the solver and the passes.
+
+    passes: every after-step pass, in the order they run; body_contacts, particle_shapes, impacts,
+    strain_limiter, emitters: the same passes by name (None where absent).
+    """
+    model: Model
+    control: Control
+    dynamics: Dynamics
+    integrator: Integrator
+    passes: list[Pass]
+    body_contacts: BodyContacts | None
+    particle_shapes: ParticleShapeContacts | None
+    impacts: PlaneImpacts | None
+    strain_limiter: StrainLimiter | None
+    emitters: EmitterPools | None
+
+
+def _present(parts):
+    return [part for part in parts if part is not None]
+
+
+def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: float, contact_margin: float,
+             collisions: bool) -> Assembly:
+    """Build every part ``scene`` needs on ``device`` (arguments as Simulator's, checked there)."""
+    model = Model(scene, device)
+    control = Control(model)
+    impulse, penalty = contact == "impulse", contact == "penalty"
+    particle_planes = model.plane_count > 0 and model.particle_count > 0
+    colliders = len(scene.colliders) if collisions else 0
+    # bodies collide when there is something to hit; particles are pushed by bodies and colliders
+    bodies_collide = collisions and model.body_count > 0 and (
+        model.plane_count > 0 or colliders > 0 or model.body_count > 1 or model.particle_count > 0)
+    particles_meet_shapes = model.particle_count > 0 and ((model.body_count > 0 and collisions) or colliders > 0)
+    geometry = ContactGeometry(model, scene) if bodies_collide or particles_meet_shapes else None
+    detection = Detection(model, geometry, scene.planes, contact_margin if impulse else 0.0) \
+        if bodies_collide else None
+
+    force_terms = _present([
+        Springs(model) if model.spring_count else None,
+        FieldForces(model, scene.fields) if scene.fields and model.particle_count else None,
+        AeroForces(model, scene.meshes) if any(mesh.drag or mesh.lift for mesh in scene.meshes) else None,
+        PlanePenalty(model, penalty_stiffness) if penalty and particle_planes else None,
+        BodyPenalty(model, penalty_stiffness, detection) if penalty and bodies_collide else None,
+    ])
+    forces = Forces(model, set().union(*(term.targets for term in force_terms)))
+    components = _present([
+        Particles(model, forces) if model.particle_count else None,
+        RigidBodies(model, forces, control) if model.body_count else None,
+    ])
+    dynamics = Dynamics(model, components, force_terms, forces)
+    solver = make_integrator(integrator).bind(dynamics)
+
+    strain_limiter = StrainLimiter(model, scene) if any(m.max_stretch is not None for m in scene.meshes) else None
+    body_contacts = BodyContacts(model, detection, solver.position_response) if impulse and bodies_collide else None
+    particle_shapes = ParticleShapeContacts(model, geometry, detection) if particles_meet_shapes else None
+    impacts = PlaneImpacts(model) if impulse and particle_planes else None
+    projection = ComponentProjection(dynamics) if model.body_count else None
+    emitters = EmitterPools(model, scene) if scene.emitters else None
+    # in this order: a particle squeezed between a body and the ground ends on the ground, not below it
+    passes = _present([strain_limiter, body_contacts, particle_shapes, impacts, projection, emitters])
+    if emitters is not None and emitters.touched is not None:   # kill-on-contact emitters read the contact flags
+        for contact_pass in _present([impacts, particle_shapes]):
+            contact_pass.touched = emitters.touched
+    return Assembly(model, control, dynamics, solver, passes, body_contacts, particle_shapes, impacts,
+                    strain_limiter, emitters)

@@ -1,0 +1,26 @@
+"""Control: what the user sets while a simulation runs, apart from the Model (constant) and the State."""
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .model import Model
+
+
+class Control:
+    """Inputs held from when they are set until changed, on the model's device.
+
+    body_force: per body, a force held on its centre of mass [N], world frame (vec3); None without bodies
+    body_torque: per body, a held torque about its centre of mass [N m], world frame (vec3); None without bodies
+    """
+
+    def __init__(self, model: Model):
+        self.model = model
+        self.body_force = model.zeros(model.body_count, model.vec3) if model.body_count else None
+        self.body_torque = model.zeros(model.body_count, model.vec3) if model.body_count else None
+
+    def set_body_wrench(self, index: int, force: np.ndarray, torque: np.ndarray) -> None:
+        """Hold ``force`` [N] and ``torque`` [N m] (world frame, about the centre of mass) on body ``index``."""
+        m = self.model
+        wp.copy(self.body_force, wp.array([force], dtype=m.vec3, device=m.device), dest_offset=index, count=1)
+        wp.copy(self.body_torque, wp.array([torque], dtype=m.vec3, device=m.device), dest_offset=index, count=1)

@@ -1,0 +1,99 @@
+"""The three kinds of part a simulation is assembled from: components, force terms and passes.
+
+- A Component owns state fields and turns forces into rates (particles, rigid bodies).
+- A ForceTerm adds forces into the components' accumulators (springs, fields, penalty contacts).
+- A Pass runs after the solver's step on the step's start and end states (contacts, strain
+  limiting, emitter pools), in the order ``warp_sim.assembly`` lists them.
+
+``Forces`` holds the accumulators the force terms write and the components read.
+"""
+from __future__ import annotations
+
+import warp as wp
+
+from .model import Model
+from .state import State, StateField
+
+
+class Component:
+    """Owner of some state fields. Subclasses set ``name`` and ``fields``.
+
+    name: the component's name in messages ("particles", "bodies")
+    fields: its StateFields
+    position_rates_need_positions: whether its position-block rates read positions too (not only velocities)
+    guard_reasons: the divergence guard's reason codes (see kernels.guards) in its words
+    """
+
+    name = "component"
+    fields: list[StateField] = []
+    position_rates_need_positions = False
+    guard_reasons = {0: "non-finite position", 1: "non-finite velocity", 2: "speed above max_speed"}
+
+    def set_initial(self, state: State, scene) -> None:
+        """Write the scene's initial values into ``state``."""
+
+    def velocity_derivative(self, state: State, t: float, out: State) -> None:
+        """Write the rates of the velocity-block fields (accelerations, torques) into ``out``."""
+
+    def position_derivative(self, positions: State, velocities: State, out: State) -> None:
+        """Write the rates of the position-block fields into ``out``, reading the
+        position fields of ``positions`` and the velocity fields of ``velocities``."""
+
+    def post_step(self, state: State) -> None:
+        """Project the state after a step (e.g. renormalise orientations)."""
+
+    def guard_inputs(self, state: State):
+        """(guard kernel, its leading inputs): the kernel takes these, then max_speed, step and the records."""
+        raise NotImplementedError
+
+    def describe(self, state: State, element: int) -> str:
+        """The current values of one element, for error messages."""
+        raise NotImplementedError
+
+
+class ForceTerm:
+    """Something that adds forces into the accumulators, given a state.
+
+    targets: the components whose accumulators it writes ("particles", "bodies")
+    """
+
+    targets = frozenset({"particles"})
+
+    def apply(self, state: State, t: float, forces: "Forces") -> None:
+        raise NotImplementedError
+
+
+class Pass:
+    """Something run after each solver step: ``apply(start, end, t, h)`` corrects ``end`` in place.
+
+    start: the state at t; end: the solver's state at t + h; h: the step [s].
+    ``check_step(h)`` runs before the step and may refuse it (ValueError).
+    """
+
+    def check_step(self, h: float) -> None:
+        """Refuse a step of h seconds this pass cannot handle (ValueError); by default accept any."""
+
+    def apply(self, start: State, end: State, t: float, h: float) -> None:
+        raise NotImplementedError
+
+
+class Forces:
+    """Force accumulators, allocated only for components some force term writes (else empty arrays).
+
+    particle_f: per particle [N]
+    body_f: per body [N]
+    body_t: per body, torque about the centre of mass [N m]
+    """
+
+    def __init__(self, model: Model, targets: set):
+        def accumulator(component: str, count: int):
+            return wp.zeros(count if component in targets else 0, dtype=model.vec3, device=model.device)
+
+        self.particle_f = accumulator("particles", model.particle_count)
+        self.body_f = accumulator("bodies", model.body_count)
+        self.body_t = accumulator("bodies", model.body_count)
+        self.arrays = [a for a in (self.particle_f, self.body_f, self.body_t) if a.shape[0] > 0]
+
+    def clear(self) -> None:
+        for array in self.arrays:
+            array.zero_()

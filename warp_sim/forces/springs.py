@@ -1,0 +1,20 @@
+"""Damped Hooke springs between particle pairs, as a force term."""
+from __future__ import annotations
+
+from ..core.model import Model
+from ..core.protocols import Forces, ForceTerm
+from ..core.state import State
+from ..kernels import springs as spring_kernels
+
+
+class Springs(ForceTerm):
+    """f2 = (-ks (L - L0) - kd (v2 - v1) . d) d, f1 = -f2 on every spring of the model (one launch)."""
+
+    def __init__(self, model: Model):
+        self.model = model
+
+    def apply(self, state: State, t: float, forces: Forces) -> None:
+        m = self.model
+        m.launch(spring_kernels.spring_forces, m.spring_count,
+                 [state.particle_x, state.particle_v, m.spring_pairs, m.spring_stiffness, m.spring_damping,
+                  m.spring_rest_length, forces.particle_f])

@@ -1,0 +1,33 @@
+"""Particles against planes: detection over the step's interval and the time-of-impact impulse response.
+
+Each crossing is backed up to its time of impact, the velocity reflected with restitution
+and Coulomb friction there, and the rest of the step travelled; a particle pressed onto a
+plane is in resting contact. The alternative, penalty forces, is ``forces.penalty.PlanePenalty``.
+"""
+from __future__ import annotations
+
+import warp as wp
+
+from ..core.model import Model
+from ..core.protocols import Pass
+from ..core.state import State
+from ..kernels import planes as plane_kernels
+
+
+class PlaneImpacts(Pass):
+    """The time-of-impact response pass, run after the solver on (start, end) of a step.
+
+    touched: per-particle int32 flags set to 1 on contact (empty unless a kill-on-contact emitter asks)
+    """
+
+    def __init__(self, model: Model):
+        self.model = model
+        self.touched = model.empty(wp.int32)
+
+    def apply(self, start: State, end: State, t: float, h: float) -> None:
+        """Correct ``end`` in place for every plane crossed between ``start`` and ``end`` (h seconds)."""
+        m = self.model
+        m.launch(plane_kernels.resolve_plane_impacts, m.particle_count,
+                 [start.particle_x, start.particle_v, end.particle_x, end.particle_v, m.particle_inv_mass,
+                  m.particle_radius, m.particle_restitution, m.particle_friction, m.plane_normal, m.plane_offset,
+                  m.plane_restitution, m.plane_friction, m.scalar(h), self.touched])

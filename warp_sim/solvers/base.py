@@ -1,0 +1,59 @@
+"""The solver protocol: an ODE solver made with its options, then bound to one simulation's Dynamics.
+
+A solver advances ``state_in`` at time t by h seconds into ``state_out`` (a different
+State of the same layout), written once over the flat state and the Dynamics derivative,
+so every component runs under every solver. Scratch states are allocated once, at
+``bind``, never per step.
+"""
+from __future__ import annotations
+
+from ..core.dynamics import Dynamics
+from ..core.state import State
+from ..kernels import integrate
+from ..util import checks
+
+
+class Integrator:
+    """Base of the ODE solvers: ``Integrator(**options)``, then ``bind(dynamics)``, then ``step``.
+
+    name: the registry name ("rk4", ...); order: the global order of accuracy
+    position_response: beta, how far a velocity change moves a position over a step: a force held over a
+        step moves the end position by beta h times the end velocity change it causes (1/2 for the
+        trapezoid-like solvers, 1 for symplectic and implicit Euler, 0 for explicit Euler)
+    dynamics: the Dynamics it is bound to (None before ``bind``)
+    """
+
+    name = ""
+    order = 0
+    position_response = 0.5
+
+    def __init__(self):
+        self.dynamics: Dynamics | None = None
+
+    def bind(self, dynamics: Dynamics) -> "Integrator":
+        """Attach to one simulation's Dynamics and allocate the scratch states; returns self."""
+        if self.dynamics is not None:
+            raise checks.fail("integrator", self, "this solver instance is already bound to a simulator; "
+                                                  "make a new one for each Simulator")
+        self.dynamics = dynamics
+        self.scalar = dynamics.model.scalar
+        self.launch = dynamics.model.launch
+        self.allocate(dynamics)
+        return self
+
+    def allocate(self, dynamics: Dynamics) -> None:
+        """Allocate what the solver needs for this Dynamics (scratch states, solver buffers)."""
+
+    def axpy(self, y, h: float, dy, out) -> None:
+        """out = y + h dy over flat buffers (or blocks) of equal length."""
+        self.launch(integrate.axpy, y.shape[0], [y, self.scalar(h), dy, out])
+
+    def step(self, state_in: State, state_out: State, t: float, h: float) -> None:
+        raise NotImplementedError
+
+    def stats(self) -> dict:
+        """The solver's counters (empty for a fixed-step explicit solver)."""
+        return {}
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
