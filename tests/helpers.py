@@ -2,6 +2,7 @@
 import numpy as np
 
 import warp_sim as ws
+from warp_sim.scene import SurfaceMesh
 
 G = 9.81
 
@@ -24,3 +25,46 @@ def particle(sim, i=0):
     """(position, velocity) of particle i as float64 numpy vectors."""
     return (sim.state.particle_x.numpy()[i].astype(np.float64),
             sim.state.particle_v.numpy()[i].astype(np.float64))
+
+
+RHO = 1.2   # air density of the cloth tests [kg/m^3]
+
+
+def add_mesh(scene, triangles, start, count, springs=None, drag=0.0, lift=0.0, air_density=RHO, max_stretch=None):
+    """Append a SurfaceMesh record by hand (what Scene.add_cloth_grid will make)."""
+    triangles = np.asarray(triangles, dtype=np.int64)
+    scene.meshes.append(SurfaceMesh(
+        name=f"mesh{len(scene.meshes)}", start=start, count=count, face_counts=np.full(len(triangles), 3),
+        face_indices=(triangles - start).ravel(), triangles=triangles,
+        springs=springs or {"structural": np.zeros(0, dtype=np.int64), "shear": np.zeros(0, dtype=np.int64),
+                            "bend": np.zeros(0, dtype=np.int64)},
+        color=(0.8, 0.8, 0.8), drag=drag, lift=lift, air_density=air_density, max_stretch=max_stretch))
+
+
+def add_grid(scene, n=8, spacing=0.1, mass=0.01, stiffness=10.0, damping=0.01, hanging=True, pin_top=True,
+             **mesh_options):
+    """An n x n cloth of structural and shear springs: hanging in the xy plane from y = 2 (row 0 on top,
+    pinned with pin_top) or lying in the xz plane at y = 1. Returns (particle ids, spring families)."""
+    rows, cols = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    a, b = cols * spacing, rows * spacing
+    zero = np.zeros_like(a, dtype=float)
+    positions = np.stack([a, 2.0 - b, zero] if hanging else [a, zero + 1.0, b], -1).reshape(-1, 3)
+    grid = np.arange(n * n).reshape(n, n)
+    ids = scene.add_particles(positions, mass=mass, pinned=grid[0] if pin_top else None,
+                              name=f"cloth{len(scene.meshes)}")
+    grid = grid + ids[0]
+    structural = np.concatenate([np.stack([grid[:, :-1].ravel(), grid[:, 1:].ravel()], 1),
+                                 np.stack([grid[:-1].ravel(), grid[1:].ravel()], 1)])
+    shear = np.concatenate([np.stack([grid[:-1, :-1].ravel(), grid[1:, 1:].ravel()], 1),
+                            np.stack([grid[:-1, 1:].ravel(), grid[1:, :-1].ravel()], 1)])
+    springs = {"structural": scene.add_springs(structural, stiffness, damping),
+               "shear": scene.add_springs(shear, stiffness, damping), "bend": np.zeros(0, dtype=np.int64)}
+    quads = np.stack([grid[:-1, :-1].ravel(), grid[:-1, 1:].ravel(), grid[1:, 1:].ravel(), grid[1:, :-1].ravel()], 1)
+    add_mesh(scene, np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]]), ids[0], n * n, springs,
+             **mesh_options)
+    return ids, springs
+
+
+def host(array):
+    """A float64 copy of a device array (on the CPU, .numpy() shares the array's memory)."""
+    return np.array(array.numpy(), dtype=np.float64)

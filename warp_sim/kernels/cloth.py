@@ -1,7 +1,14 @@
-"""Cloth: aerodynamic drag and lift per triangle, and Provot strain limiting of springs."""
+"""Cloth: aerodynamic drag and lift per triangle, and Provot strain limiting of springs.
+
+Public (``__all__``): aerodynamic_forces.
+Private: limit_strain, measure_strain and reset_strain_counters (the strain-limiting pass), for
+the simulator's own use; their arguments may change between releases.
+"""
 from typing import Any
 
 import warp as wp
+
+__all__ = ["aerodynamic_forces"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
@@ -25,10 +32,18 @@ def aerodynamic_forces(
         F_D = -drag A |u| u_n n
         F_L = -lift A u_n (|u| n - u_n u / |u|)
     i.e. F_L = -lift A |u|^2 cos(theta) sin(theta) l, theta the angle between n and u
-    and l the unit vector normal to u in the plane of u and n on n's side. triangles:
-    global particle indices (a, b, c); drag, lift: per triangle 1/2 rho C_D and
-    1/2 rho C_L [kg/m^3]; wind [m/s]; force: per-particle accumulator [N] (atomic
-    adds). A degenerate triangle (zero area) or one at rest in the air feels nothing.
+    and l the unit vector normal to u in the plane of u and n on n's side. Launch with
+    dim = the number of triangles; the forces are atomic adds. A degenerate triangle
+    (zero area) or one at rest in the air feels nothing.
+
+    Args:
+        x: particle positions (vec3) [m]
+        v: particle velocities (vec3) [m/s]
+        triangles: the particle indices (a, b, c) of each triangle [1]
+        drag: 1/2 rho C_D per triangle (rho the air's density, C_D the drag coefficient) [kg/m^3]
+        lift: 1/2 rho C_L per triangle (C_L the lift coefficient) [kg/m^3]
+        wind: the air's velocity (vec3) [m/s]
+        force: per-particle force accumulator, added to (vec3) [N]
     """
     t = wp.tid()
     a = triangles[t][0]

@@ -3,6 +3,9 @@ penalty forces, and particles pushed by shapes.
 
 The response works in the state's precision on the solver's end-of-step state, from the
 contacts ``detection`` found at the start of the step (see there for their layout).
+
+Private: every kernel and function here is for the simulator's own use (the body contact passes);
+their arguments may change between releases. ``__all__`` is empty.
 """
 from typing import Any
 
@@ -14,6 +17,8 @@ from .precisions import declare_precisions
 from .rigid import angular_velocity
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
+__all__ = []
 
 
 # response ------------------------------------------------------------------------

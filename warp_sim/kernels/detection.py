@@ -7,6 +7,9 @@ A contact pushes body ``ids[c][0]`` along +n away from ``ids[c][1]``, which is a
 them along the normal: the gap is n . (point1 - point2) - radius1 - radius2 (negative
 when they overlap). A rounded part (a sphere, a capsule's end) is its centre and radius,
 so its contact point stays under it as it rolls; elsewhere the radius is 0.
+
+Private: every kernel, function and struct here is for the simulator's own use (warp_sim.detection);
+their arguments may change between releases. ``__all__`` is empty.
 """
 from typing import Any
 
@@ -23,6 +26,8 @@ from .geometry import (
 from .precisions import declare_precisions
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
+__all__ = []
 
 
 @wp.struct

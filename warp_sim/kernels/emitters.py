@@ -10,12 +10,17 @@ stack top and counts births that found no slot (skipped, never overwritten).
 Randomness: every draw of a particle comes from ``wp.rand_init(seed, sequence)``
 with the emitter's seed and the particle's sequence number, so a particle's
 attributes depend only on (seed, emitter, id), on any device.
+
+Private: every kernel and function here is for the simulator's own use (the emitter pass);
+their arguments may change between releases. ``__all__`` is empty.
 """
 from typing import Any
 
 import warp as wp
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
+__all__ = []
 
 SHAPE_POINT = wp.constant(0)
 SHAPE_DISC = wp.constant(1)

@@ -4,11 +4,16 @@ A field is an acceleration [m/s^2] independent of the particle's mass; each kern
 adds force = acceleration * m = acceleration / inv_mass into the force accumulator,
 for every field of its kind (looped inside the kernel: one launch per kind), and
 skips pinned particles (inv_mass 0). Thread i owns particle i, so the adds are
-plain read-modify-writes.
+plain read-modify-writes: launch with dim = the number of particles. The field
+arrays (center, strength, ...) hold one entry per field of the kind, k = 0 .. K-1.
+
+Public (``__all__``): attractor_forces, vortex_forces, turbulence_forces, all the module's kernels.
 """
 from typing import Any
 
 import warp as wp
+
+__all__ = ["attractor_forces", "vortex_forces", "turbulence_forces"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
@@ -28,11 +33,16 @@ def attractor_forces(
 ):
     """Accumulate m a with a = sum_k -GM_k (x - c_k) / max(|x - c_k|, d_k)^3 (inverse square).
 
-    x: particle positions [m]; inv_mass: 1/m [1/kg], 0 for pinned particles (no
-    force); center: attractor positions c_k [m]; strength: GM_k [m^3/s^2] (> 0
-    attracts, < 0 repels); min_distance: d_k [m] > 0, inside which the field is that
-    of a uniform ball of radius d_k (linear in x - c_k, zero at the centre, no
-    singularity); force: per-particle accumulator [N].
+    Inside min_distance d_k the field is that of a uniform ball of radius d_k (linear
+    in x - c_k, zero at the centre, no singularity).
+
+    Args:
+        x: particle positions (vec3) [m]
+        inv_mass: inverse masses 1/m, 0 for pinned (no force) [1/kg]
+        center: the attractor positions c_k (vec3) [m]
+        strength: GM_k, > 0 attracts, < 0 repels [m^3/s^2]
+        min_distance: d_k > 0, the radius of the smoothed core [m]
+        force: per-particle force accumulator, added to (vec3) [N]
     """
     i = wp.tid()
     w = inv_mass[i]
@@ -59,11 +69,17 @@ def vortex_forces(
 ):
     """Accumulate m a with a = sum_k S_k (n_k x r) / (|r|^2 + rc_k^2), r the part of x - c_k normal to n_k.
 
-    x: particle positions [m]; inv_mass: 1/m [1/kg], 0 for pinned particles (no
-    force); center: a point c_k on each vortex line [m]; axis: its unit direction
-    n_k; strength: S_k [m^2/s^2] (> 0 swirls counter-clockwise about n_k, right-hand
-    rule); core_radius: rc_k [m] > 0, which smooths the line singularity (the
-    swirl peaks at |r| = rc_k at S_k / (2 rc_k)); force: per-particle accumulator [N].
+    The core radius rc_k smooths the line singularity: the swirl peaks at |r| = rc_k
+    at S_k / (2 rc_k).
+
+    Args:
+        x: particle positions (vec3) [m]
+        inv_mass: inverse masses 1/m, 0 for pinned (no force) [1/kg]
+        center: a point c_k on each vortex line (vec3) [m]
+        axis: the unit direction n_k of each vortex line (vec3) [1]
+        strength: S_k, > 0 swirls counter-clockwise about n_k (right-hand rule) [m^2/s^2]
+        core_radius: rc_k > 0 [m]
+        force: per-particle force accumulator, added to (vec3) [N]
     """
     i = wp.tid()
     w = inv_mass[i]
@@ -94,13 +110,19 @@ def turbulence_forces(
 ):
     """Accumulate m a with a = sum_k A_k curlnoise(seed_k, (x / L_k, t f_k), octaves_k), divergence-free in x.
 
-    x: particle positions [m]; inv_mass: 1/m [1/kg], 0 for pinned particles (no
-    force); t: time [s]; strength: A_k [m/s^2]; inv_scale: 1 / L_k [1/m], L_k the
-    size of the noise features; frequency: f_k [1/s], how fast the field changes
-    (0: steady); seed: selects the noise field (wp.rand_init); octaves: number of
-    noise octaves (Warp's lacunarity 2 and gain 1/2); force: per-particle
-    accumulator [N]. Warp's noise is float32: the coordinates are formed in the
-    arrays' precision, rounded to float32, and the noise converted back.
+    Warp's noise is float32: the coordinates are formed in the arrays' precision,
+    rounded to float32, and the noise converted back.
+
+    Args:
+        x: particle positions (vec3) [m]
+        inv_mass: inverse masses 1/m, 0 for pinned (no force) [1/kg]
+        t: the time [s]
+        strength: A_k, the acceleration scale [m/s^2]
+        inv_scale: 1 / L_k, L_k the size of the noise features [1/m]
+        frequency: f_k, how fast the field changes, 0 for a steady field [1/s]
+        seed: selects the noise field (wp.rand_init) [1]
+        octaves: the number of noise octaves (Warp's lacunarity 2 and gain 1/2) [1]
+        force: per-particle force accumulator, added to (vec3) [N]
     """
     i = wp.tid()
     w = inv_mass[i]

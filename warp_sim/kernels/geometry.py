@@ -6,12 +6,17 @@ the unit outward direction of steepest increase. Mesh distances use Warp's BVH
 queries (``wp.mesh_query_point_sign_normal``: the sign from the angle-weighted pseudo
 normal, which also works for open surfaces such as terrains, where "inside" is below
 the surface), in float32 as ``wp.Mesh`` stores them.
+
+Private: every function here (there are no kernels) is for the simulator's own use;
+their arguments may change between releases. ``__all__`` is empty.
 """
 from typing import Any
 
 import warp as wp
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
+__all__ = []
 
 SPHERE = wp.constant(0)
 BOX = wp.constant(1)

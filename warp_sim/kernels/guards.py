@@ -1,7 +1,14 @@
-"""Detection of non-finite or runaway states, recorded on the device without a host sync."""
+"""Detection of non-finite or runaway states, recorded on the device without a host sync.
+
+Public (``__all__``): check_finite_and_bounded.
+Private: check_bodies (the rigid-body guard) and the Warp function record_first_bad, for the
+simulator's own use; their arguments may change between releases.
+"""
 from typing import Any
 
 import warp as wp
+
+__all__ = ["check_finite_and_bounded"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
@@ -28,10 +35,20 @@ def check_finite_and_bounded(
 ):
     """Record the first step at which any element is bad, and its lowest bad element.
 
-    x: positions [m]; v: velocities [m/s]; max_speed [m/s]. Once a step is recorded
-    in first_step[0], later steps leave the record alone. first_key[0] holds
-    4 * element + reason (REASON_*), minimised over the bad elements of that step.
-    Both records start at the int32 maximum.
+    An element is bad when its position or velocity is not finite or its speed exceeds
+    max_speed. Once a step is recorded in first_step[0], later steps leave the record
+    alone. first_key[0] holds 4 * element + reason (REASON_POSITION 0, REASON_VELOCITY 1,
+    REASON_SPEED 2), minimised over the bad elements of that step. Both records start at
+    the int32 maximum (2147483647): set them so before the first launch. Launch with
+    dim = the number of elements.
+
+    Args:
+        x: positions (vec3) [m]
+        v: velocities (vec3) [m/s]
+        max_speed: the speed bound [m/s]
+        step: the number of the step being checked [1]
+        first_step: one element, the first bad step, int32 max while none [1]
+        first_key: one element, 4 * element + reason of that step's lowest bad element [1]
     """
     i = wp.tid()
     if first_step[0] < step:

@@ -24,12 +24,17 @@ guess are 0, so conjugate gradient leaves their dv at exactly 0 (and the update 
 
 Every kernel is generic over the precision: pass float arrays and scalars of one type
 (``wp.float32`` with vec3f and mat33f, or ``wp.float64`` with vec3d and mat33d).
+
+Private: every kernel here is for the simulator's own use (the implicit Euler solver);
+their arguments may change between releases. ``__all__`` is empty.
 """
 from typing import Any
 
 import warp as wp
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
+__all__ = []
 
 
 @wp.kernel

@@ -1,18 +1,35 @@
 """Element-wise arithmetic on flat state buffers, the building blocks of the ODE solvers.
 
-All arrays are 1-D arrays of one float scalar type (a State's flat buffer or a
-slice of it); ``h`` is a step in seconds of that scalar type.
+All arrays are 1-D arrays of one element type: the solvers pass a State's flat buffer
+(or a slice of it) of float scalars, but any element type of the precision works
+(scalars, vec3, quat, mat33), as long as every array of a launch has the same one;
+``h`` is a step in seconds, a scalar of that precision. In the argument lists u stands
+for each element's own unit (m, m/s, kg m/s, ...).
+
+Public (``__all__``): axpy, copy, rk4_combine.
+Private: the Dormand-Prince kernels dp_stage3, dp_stage4, dp_stage5, dp_stage6, dp_solution and
+dp_error_max, for the simulator's own use (the adaptive solver); their arguments may change
+between releases.
 """
 from typing import Any
 
 import warp as wp
+
+__all__ = ["axpy", "copy", "rk4_combine"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
 
 @wp.kernel
 def axpy(y: wp.array(dtype=Any), h: Any, dy: wp.array(dtype=Any), out: wp.array(dtype=Any)):
-    """out = y + h * dy (``out`` may alias ``y``)."""
+    """out = y + h * dy, element-wise (``out`` may alias ``y``): an explicit Euler stage. Launch with dim = len(y).
+
+    Args:
+        y: start values (elementwise) [u]
+        h: the step [s]
+        dy: rates of change of y (elementwise) [u/s]
+        out: the result y + h dy (elementwise) [u]
+    """
     i = wp.tid()
     out[i] = y[i] + h * dy[i]
 
@@ -27,7 +44,17 @@ def rk4_combine(
     k4: wp.array(dtype=Any),
     out: wp.array(dtype=Any),
 ):
-    """out = y + h/6 (k1 + 2 k2 + 2 k3 + k4), the classical Runge-Kutta update."""
+    """out = y + h/6 (k1 + 2 k2 + 2 k3 + k4), the classical Runge-Kutta update. Launch with dim = len(y).
+
+    Args:
+        y: values at the start of the step (elementwise) [u]
+        h: the step [s]
+        k1: the slope at the start (elementwise) [u/s]
+        k2: the first midpoint slope (elementwise) [u/s]
+        k3: the second midpoint slope (elementwise) [u/s]
+        k4: the slope at the end (elementwise) [u/s]
+        out: the result, may alias y (elementwise) [u]
+    """
     i = wp.tid()
     two = type(h)(2.0)
     out[i] = y[i] + h / type(h)(6.0) * (k1[i] + two * k2[i] + two * k3[i] + k4[i])
@@ -35,7 +62,12 @@ def rk4_combine(
 
 @wp.kernel
 def copy(source: wp.array(dtype=Any), out: wp.array(dtype=Any)):
-    """out = source, element-wise (a launch, so it can be recorded and replayed)."""
+    """out = source, element-wise (a launch, so it can be recorded and replayed). Launch with dim = len(source).
+
+    Args:
+        source: the values to copy (elementwise) [u]
+        out: the copy, same length and element type (elementwise) [u]
+    """
     i = wp.tid()
     out[i] = source[i]
 

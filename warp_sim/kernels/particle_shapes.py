@@ -1,5 +1,9 @@
 """Particles (and cloth and soft-body vertices) against bodies and static colliders, one way: shapes push
-particles at the end of each step."""
+particles at the end of each step.
+
+Private: every kernel and function here is for the simulator's own use (the particle-shape pass);
+their arguments may change between releases. ``__all__`` is empty.
+"""
 from typing import Any
 
 import warp as wp
@@ -11,6 +15,8 @@ from .planes import contact_material, coulomb_friction
 from .precisions import declare_precisions
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
+__all__ = []
 
 
 @wp.kernel

@@ -1,7 +1,12 @@
-"""The particle derivative: accelerations from gravity, linear drag, wind and accumulated forces."""
+"""The particle derivative: accelerations from gravity, linear drag, wind and accumulated forces.
+
+Public (``__all__``): particle_acceleration, the module's only kernel.
+"""
 from typing import Any
 
 import warp as wp
+
+__all__ = ["particle_acceleration"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
@@ -18,9 +23,16 @@ def particle_acceleration(
 ):
     """dv[i] = g + (f[i] + drag (wind - v[i])) / m[i]; zero for pinned particles (inv_mass 0).
 
-    v: velocities [m/s]; force: accumulated forces [N], or an empty array when no
-    force term is present; inv_mass: 1/m [1/kg]; gravity [m/s^2]; drag: linear drag
-    coefficient [N s/m]; wind: air velocity [m/s]; dv: accelerations out [m/s^2].
+    Launch with dim = the number of particles.
+
+    Args:
+        v: particle velocities (vec3) [m/s]
+        force: accumulated forces, or an empty array when no force term is present (vec3) [N]
+        inv_mass: inverse masses 1/m, 0 for pinned [1/kg]
+        gravity: the gravitational acceleration g (vec3) [m/s^2]
+        drag: the linear drag coefficient, the same for every particle [N s/m]
+        wind: the air's velocity (vec3) [m/s]
+        dv: the accelerations, written (vec3) [m/s^2]
     """
     i = wp.tid()
     w = inv_mass[i]

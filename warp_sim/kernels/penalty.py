@@ -3,6 +3,11 @@
 One damping model for every penalty contact (particles on planes, bodies on bodies, colliders
 and planes): the contact is a linear spring-dashpot that cannot pull, and its damping ratio is
 the one at which such a contact rebounds with restitution e (Schwager and Poeschel 2007).
+
+Public (``__all__``): plane_penalty_forces.
+Private: body_penalty_forces (it takes the simulator's own contact buffers) and the Warp
+functions no_tension_log_restitution, restitution_damping_ratio and penalty_damping, for the
+simulator's own use; their arguments may change between releases.
 """
 from typing import Any
 
@@ -14,6 +19,8 @@ from .planes import contact_material
 from .precisions import declare_precisions
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
+__all__ = ["plane_penalty_forces"]
 
 
 @wp.func
@@ -41,13 +48,16 @@ def no_tension_log_restitution(zeta: Any):
 
 @wp.func
 def restitution_damping_ratio(e: Any):
-    """The damping ratio zeta at which a no-tension penalty contact rebounds with restitution e.
+    """The damping ratio zeta at which a no-tension penalty contact rebounds with restitution e, at most 1.
 
-    Bisection on the monotone -ln e(zeta) over [0, 100]; e is clamped to [1e-4, 1].
+    Bisection on the monotone -ln e(zeta) over [0, 1]. A critically damped no-tension contact still
+    rebounds with e = exp(-2) = 0.135; lower restitutions would need a damper far above critical, whose
+    rate 2 zeta omega exceeds the explicit solvers' stability limit at ordinary steps, so e below
+    exp(-2) (e = 0 included) gets critical damping, zeta = 1, and rebounds with e = 0.135.
     """
     target = -wp.log(wp.clamp(e, type(e)(1e-4), type(e)(1.0)))
     low = type(e)(0.0)
-    high = type(e)(100.0)
+    high = type(e)(1.0)
     for _ in range(48):
         mid = type(e)(0.5) * (low + high)
         if no_tension_log_restitution(mid) < target:
@@ -82,10 +92,27 @@ def plane_penalty_forces(
 ):
     """Accumulate penalty forces: a spring and damper on the penetration depth.
 
+    depth = offset_k + r - n_k . x for each plane k the particle's sphere overlaps;
     f_n = max(0, k depth - c v_n) along n, with k the stiffness [N/m] and the damper c of
     penalty_damping, so that an isolated contact rebounds with the contact's restitution e. Friction opposes
     the tangential velocity with magnitude min(mu f_n, c |v_t|): Coulomb when
-    sliding, viscous (slow creep) below the speed mu f_n / c. force: accumulator [N].
+    sliding, viscous (slow creep) below the speed mu f_n / c. Restitution and friction
+    are the plane's, averaged with the particle's own where it has one. Launch with
+    dim = the number of particles; pinned particles are skipped.
+
+    Args:
+        x: particle positions (vec3) [m]
+        v: particle velocities (vec3) [m/s]
+        inv_mass: inverse masses 1/m, 0 for pinned (skipped) [1/kg]
+        radius: particle radii [m]
+        particle_restitution: own restitution e per particle, < 0 for none, or an empty array [1]
+        particle_friction: own friction coefficient mu per particle, < 0 for none, or an empty array [1]
+        plane_normal: unit normals n_k, pointing to the allowed side (vec3) [1]
+        plane_offset: offsets of the planes n_k . x = offset_k [m]
+        plane_restitution: restitution e of each plane [1]
+        plane_friction: Coulomb friction coefficient mu of each plane [1]
+        stiffness: the penalty spring constant k [N/m]
+        force: per-particle force accumulator, added to (vec3) [N]
     """
     i = wp.tid()
     w = inv_mass[i]

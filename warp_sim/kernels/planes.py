@@ -4,10 +4,16 @@ A plane k is the set n_k . x = offset_k with unit normal n_k; particles of radiu
 are kept on the side n_k points to (n_k . x >= offset_k + r). Restitution e and
 friction mu of a contact are the plane's values, averaged with the particle's own
 where the particle has one (a negative particle value means "none").
+
+Public (``__all__``): resolve_plane_impacts, the module's only kernel.
+Private: the Warp functions contact_material, first_contact_time and coulomb_friction,
+for the simulator's own use; their arguments may change between releases.
 """
 from typing import Any
 
 import warp as wp
+
+__all__ = ["resolve_plane_impacts"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
@@ -108,8 +114,23 @@ def resolve_plane_impacts(
     the normal acceleration and friction acts with the impulse that supports it.
     No energy is added, and no particle ends the step inside a plane. x and v
     (the integrator's end of step) are updated in place; pinned particles are skipped.
-    touched_out: set to 1 for every particle that touched a plane in the step, or
-    an empty array when nobody asks.
+    Launch with dim = the number of particles, after the step from (x_start, v_start).
+
+    Args:
+        x_start: positions at the start of the step (vec3) [m]
+        v_start: velocities at the start of the step (vec3) [m/s]
+        x: positions at the end of the step, corrected in place (vec3) [m]
+        v: velocities at the end of the step, corrected in place (vec3) [m/s]
+        inv_mass: inverse masses 1/m, 0 for pinned (skipped) [1/kg]
+        radius: particle radii [m]
+        particle_restitution: own restitution e per particle, < 0 for none, or an empty array [1]
+        particle_friction: own friction coefficient mu per particle, < 0 for none, or an empty array [1]
+        plane_normal: unit normals n_k, pointing to the allowed side (vec3) [1]
+        plane_offset: offsets of the planes n_k . x = offset_k [m]
+        plane_restitution: restitution e of each plane [1]
+        plane_friction: Coulomb friction coefficient mu of each plane [1]
+        h: the step [s]
+        touched_out: set to 1 for each particle that touched a plane in the step, or an empty array [1]
     """
     i = wp.tid()
     if inv_mass[i] == type(h)(0.0):

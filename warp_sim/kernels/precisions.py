@@ -4,10 +4,15 @@ Warp rebuilds a module each time a launch needs a new overload; a large module w
 a simulation first launches one by one then compiles many times over (minutes on a cold
 cache). Registering the float32 and float64 overloads at import builds it once with all of them.
 Argument names decide the array types (the kernels' naming convention).
+
+Private: for the simulator's own use (there are no kernels); its arguments may change between
+releases. ``__all__`` is empty.
 """
 from typing import Any
 
 import warp as wp
+
+__all__ = []
 
 VECTORS = {"x_start", "P_start", "L_start", "x_end", "P_end", "L_end", "anchor1", "anchor2", "normal", "impulse_t",
            "collision_t", "v", "w", "v_collided", "w_collided", "x", "P", "L", "stored_t", "body_x", "body_P",

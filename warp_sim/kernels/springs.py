@@ -1,7 +1,12 @@
-"""Damped Hooke springs between particle pairs (the lecture's spring-damper)."""
+"""Damped Hooke springs between particle pairs (the lecture's spring-damper).
+
+Public (``__all__``): spring_forces, the module's only kernel.
+"""
 from typing import Any
 
 import warp as wp
+
+__all__ = ["spring_forces"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
@@ -18,11 +23,20 @@ def spring_forces(
 ):
     """Accumulate f = (-ks (L - L0) - kd (v2 - v1).d) d on p2 and -f on p1.
 
-    d = (p2 - p1) / L is the unit vector from p1 to p2 and L the current length [m].
+    d = (x[p2] - x[p1]) / L is the unit vector from p1 to p2 and L the current length [m].
     The damper opposes the rate of change of length (see README on the lecture's
-    sign). pairs: (p1, p2) particle indices; stiffness ks [N/m]; damping kd
-    [N s/m]; rest_length L0 [m]; force: per-particle accumulator [N] (atomic adds).
-    A spring of zero current length has no direction and exerts no force.
+    sign). Launch with dim = the number of springs; the forces are atomic adds into
+    ``force`` (zero it first for the springs' force alone). A spring of zero current
+    length has no direction and exerts no force.
+
+    Args:
+        x: particle positions (vec3) [m]
+        v: particle velocities (vec3) [m/s]
+        pairs: the particle indices (p1, p2) of each spring [1]
+        stiffness: ks, per spring [N/m]
+        damping: kd, per spring [N s/m]
+        rest_length: L0, per spring [m]
+        force: per-particle force accumulator, added to (vec3) [N]
     """
     s = wp.tid()
     i = pairs[s][0]

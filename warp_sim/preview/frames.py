@@ -10,6 +10,7 @@ import pathlib
 from dataclasses import dataclass, field
 
 import numpy as np
+from pxr import Usd, UsdGeom
 
 from ..simulator import Simulator
 from ..stages import stage_layout
@@ -320,8 +321,6 @@ def _gf_matrix(m) -> np.ndarray:
 
 
 def _primvar(prim, name: str, time, default):
-    from pxr import UsdGeom
-
     primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
     value = primvar.Get(time) if primvar and primvar.HasValue() else None
     return default if value is None or len(value) == 0 else np.asarray(value, dtype=np.float64)
@@ -331,16 +330,12 @@ class _UsdItem:
     """One gprim of a stage: draws itself into _Parts at a time code."""
 
     def __init__(self, prim, segments: int):
-        from pxr import UsdGeom
-
         self.prim, self.segments = prim, segments
         self.type = prim.GetTypeName()
         self.gprim = UsdGeom.Gprim(prim)
         self.topology = None
 
     def time_varying(self) -> bool:
-        from pxr import UsdGeom
-
         if any(attr.GetNumTimeSamples() > 0 for attr in self.prim.GetAttributes()):
             return True
         prim = self.prim
@@ -352,8 +347,6 @@ class _UsdItem:
         return False
 
     def draw(self, parts: _Parts, time, cache) -> None:
-        from pxr import UsdGeom
-
         prim = self.prim
         m = _gf_matrix(cache.GetLocalToWorldTransform(prim))
         linear, shift = m[:3, :3], m[3, :3]
@@ -429,8 +422,6 @@ def read_usd(path, frames=None, segments: int = 16) -> Recording:
     ``frames``, time codes), at the stage's timeCodesPerSecond. Meshes under a prim named ``Planes`` are
     drawn as planes (checkered floors); everything without time samples is drawn once as static geometry.
     Invisible prims are skipped."""
-    from pxr import Usd, UsdGeom
-
     if not isinstance(path, (str, os.PathLike)):
         raise checks.fail("path", path, "expected the path of a USD stage (str or pathlib.Path)")
     path = pathlib.Path(path)

@@ -26,6 +26,8 @@ class AdaptiveStepFailed(SimulationDiverged):
 
 # Dormand-Prince 5(4) (Dormand and Prince 1980; Hairer, Norsett and Wanner, Solving ODEs I, II.5):
 # the nodes; the stage weights are written out in the kernels (warp_sim.kernels.integrate.dp_*).
+#: the smallest relative tolerance at any precision: 4 float64 machine epsilons
+RTOL_FLOOR = 4.0 * float(np.finfo(np.float64).eps)
 DP_NODES = (0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0)
 
 
@@ -67,9 +69,10 @@ class RK45(Integrator):
     def __init__(self, rtol: float = 1.0e-6, atol: float = 1.0e-9, max_steps: int = 100_000,
                  first_step: float | None = None):
         super().__init__()
-        self.rtol = checks.scalar("rtol", rtol, low=0.0, low_open=True)
-        if self.rtol >= 1.0:
-            raise checks.fail("rtol", rtol, "must be > 0 and < 1 (a relative tolerance)")
+        self.rtol = checks.scalar("rtol", rtol)
+        if not RTOL_FLOOR <= self.rtol < 1.0:   # the precision's own floor is checked at bind
+            raise checks.fail("rtol", rtol, f"must be >= {RTOL_FLOOR:.3g} (4 machine epsilons of a float64 state) "
+                                            "and < 1")
         self.atol = checks.scalar("atol", atol, low=0.0, low_open=True)
         self.max_steps = checks.count("max_steps", max_steps)
         self.step_size = None if first_step is None else checks.scalar("first_step", first_step, low=0.0,

@@ -20,7 +20,7 @@ import warp as wp
 
 from ..core.guards import SimulationDiverged
 from ..simulator import Simulator, resolve_device
-from ..solvers import INTEGRATORS
+from ..solvers import INTEGRATORS, make_integrator
 from ..util import checks
 from . import report
 from .common import COSTLY, is_adaptive, names, positive_list
@@ -50,7 +50,7 @@ def _sync(device) -> None:
 def _simulate(problem, integrator: str, calls: int, device: str, tolerance=None):
     """One run: (observed vector or None if it diverged, seconds per simulated second, internal steps)."""
     options = {} if tolerance is None else {"rtol": tolerance, "atol": tolerance * ATOL_PER_RTOL}
-    sim = Simulator(problem.build(), integrator=integrator, device=device, guard=False, **options)
+    sim = Simulator(problem.build(), integrator=make_integrator(integrator, **options), device=device, guard=False)
     h = problem.duration / calls
     try:
         sim.step(h, UNTIMED)

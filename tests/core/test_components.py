@@ -7,7 +7,7 @@ import pytest
 from helpers import G
 
 import warp_sim as ws
-from warp_sim.rotations import quat_to_matrix
+from warp_sim.util.rotations import quat_to_matrix
 
 # A flat body of point masses in the xy-plane with I_body = diag(1, 2, 3) kg m^2
 # (I_zz = I_xx + I_yy for a lamina): 0.5 kg at (+-sqrt 2, 0, 0) and at (0, +-1, 0).
@@ -30,7 +30,7 @@ def body_state(sim, i=0):
 def body_frame_omega(sim, i=0):
     """omega in the body frame: I_body^-1 R^T L [rad/s]."""
     _, q, _, L = body_state(sim, i)
-    inertia = sim.model.scene.bodies[i].mass.inertia
+    inertia = sim.scene.bodies[i].mass.inertia
     return np.linalg.solve(inertia, quat_to_matrix(q).T @ L)
 
 
@@ -162,7 +162,7 @@ def test_impulse_changes_momentum_and_spin_exactly(device):
     J, r = np.array([0.3, -1.2, 2.0]), np.array([0.05, 0.2, -0.3])
     sim.apply_impulse(0, J, point=x + r)
     R = quat_to_matrix(q)
-    inertia_world = R @ sim.model.scene.bodies[0].mass.inertia @ R.T
+    inertia_world = R @ sim.scene.bodies[0].mass.inertia @ R.T
     assert np.allclose(body_state(sim)[2] - P0, J, rtol=0, atol=1e-14)
     expected = np.linalg.solve(inertia_world, np.cross(r, J))
     assert np.allclose(sim.body_velocities()[1].numpy()[0] - omega0, expected, rtol=1e-12, atol=1e-12)
@@ -223,7 +223,7 @@ def test_nan_user_force_stops_with_the_body_named():
     scene.add_rigid_body(ws.Sphere(0.1), position=(1, 1, 0))
     sim = ws.Simulator(scene, integrator="symplectic_euler", device="cpu")
     sim.step(0.01, 3)
-    sim.model.body_user_force.assign(np.array([[0, 0, 0], [np.inf, 0, 0]]))
+    sim.control.body_force.assign(np.array([[0, 0, 0], [np.inf, 0, 0]]))
     with pytest.raises(ws.SimulationDiverged) as error:
         sim.step(0.01, 5)
     assert (error.value.step, error.value.component, error.value.element) == (4, "bodies", 1)
@@ -234,7 +234,7 @@ def test_runaway_body_speed_is_caught():
     scene = ws.Scene(gravity=(0.0, 0.0, 0.0), precision="float64")
     scene.add_rigid_body(ws.Box(0.1), linear_velocity=(5.0, 0.0, 0.0))
     sim = ws.Simulator(scene, device="cpu", max_speed=10.0)
-    sim.set_body_force(0, (sim.model.scene.bodies[0].mass.mass * 100.0, 0.0, 0.0))   # 100 m/s^2
+    sim.set_body_force(0, (sim.scene.bodies[0].mass.mass * 100.0, 0.0, 0.0))   # 100 m/s^2
     with pytest.raises(ws.SimulationDiverged, match="speed above max_speed") as error:
         sim.step(0.01, 20)
     assert error.value.step == 6     # 5 + 100 * 0.06 = 11 m/s > 10 first after step 6

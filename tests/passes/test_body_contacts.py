@@ -224,7 +224,7 @@ def test_body_comes_to_rest_on_trimesh_terrain(tmp_path):
     assert np.linalg.norm(v[0]) < 1e-2 and np.linalg.norm(w[0]) < 1e-1
     # no corner below the surface beyond the slop, and lying on it (some corner within 2 mm)
     x, q = sim.state.body_x.numpy()[0], sim.state.body_q.numpy()[0]
-    from warp_sim.rotations import quat_to_matrix
+    from warp_sim.util.rotations import quat_to_matrix
 
     corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
     world = corners @ quat_to_matrix(q).T + x

@@ -8,7 +8,8 @@ import pytest
 from helpers import G, oscillator, particle
 
 import warp_sim as ws
-from warp_sim.integrators import RK45, AdaptiveStepFailed, make_integrator
+from warp_sim import RK45, AdaptiveStepFailed
+from warp_sim.solvers import make_integrator
 
 # point masses in the xy-plane with I_body = diag(1, 2, 3) kg m^2, spun near the intermediate axis
 LAMINA = ws.PointMasses([[math.sqrt(2.0), 0, 0], [-math.sqrt(2.0), 0, 0], [0, 1, 0], [0, -1, 0]], 0.5)
@@ -36,7 +37,7 @@ def kepler(integrator, e=0.99, GM=1.0, a=1.0, **options):
     r_apo = a * (1.0 + e)
     v_apo = math.sqrt(GM * (1.0 - e) / (a * (1.0 + e)))                      # vis-viva at apoapsis
     scene.add_particles([[r_apo, 0.0, 0.0]], [[0.0, v_apo, 0.0]])
-    sim = ws.Simulator(scene, integrator=integrator, device="cpu", **options)
+    sim = ws.Simulator(scene, integrator=make_integrator(integrator, **options), device="cpu")
     return sim, np.array([r_apo, 0.0, 0.0]), 2.0 * math.pi * math.sqrt(a**3 / GM)
 
 
@@ -66,8 +67,8 @@ def test_step_lands_exactly_and_projectile_is_exact():
     scene = ws.Scene(precision="float64")
     x0, v0 = np.array([0.0, 1.0, 0.0]), np.array([3.0, 10.0, -1.0])
     scene.add_particles([x0], [v0])
-    sim = ws.Simulator(scene, integrator="rk45", device="cpu")
-    sim.integrator = solver = RecordingRK45(sim.dynamics, rtol=1e-8, first_step=0.03)
+    solver = RecordingRK45(rtol=1e-8, first_step=0.03)
+    sim = ws.Simulator(scene, integrator=solver, device="cpu")
     sim.step(0.1)
     assert sim.time == 0.1
     x, v = particle(sim)
@@ -93,8 +94,8 @@ def test_damped_oscillator_matches_closed_form_to_the_tolerance():
     """A particle on a damped spring to a pinned particle, 30 calls of 0.1 s at rtol 1e-8, atol 1e-10:
     position within the tolerance scale (atol + rtol |x|, |x| ~ 1 m), velocity within 20 times it."""
     k, m, kd, T, amplitude, rtol, atol = 100.0, 1.0, 0.4, 3.0, 0.1, 1e-8, 1e-10
-    sim = ws.Simulator(oscillator(k, m, amplitude=amplitude, damping=kd), integrator="rk45", device="cpu",
-                       rtol=rtol, atol=atol)
+    sim = ws.Simulator(oscillator(k, m, amplitude=amplitude, damping=kd), integrator=ws.RK45(rtol=rtol, atol=atol),
+                       device="cpu")
     for _ in range(30):
         sim.step(0.1)
     x, v = particle(sim, 1)
@@ -112,8 +113,8 @@ def test_damped_oscillator_matches_closed_form_to_the_tolerance():
 def test_rejections_are_counted_and_the_step_recovers():
     """Tight tolerance and a first try of the whole 1 s span on w = 10 rad/s: rejected, shrunk by at
     most 5x per try, then accepted; the counters add up."""
-    sim = ws.Simulator(oscillator(k=100.0), integrator="rk45", device="cpu")
-    sim.integrator = solver = RecordingRK45(sim.dynamics, rtol=1e-10, atol=1e-12)
+    solver = RecordingRK45(rtol=1e-10, atol=1e-12)
+    sim = ws.Simulator(oscillator(k=100.0), integrator=solver, device="cpu")
     sim.step(1.0)
     assert sim.time == 1.0
     assert solver.rejected >= 1 and solver.trials[0][2] > 1.0
@@ -127,8 +128,8 @@ def test_rejections_are_counted_and_the_step_recovers():
 def test_step_grows_on_a_smooth_problem_within_the_growth_limit():
     """From a 1e-6 s first step on a slow oscillator (w = 1 rad/s) the step grows, by at most 5x per
     accepted step, and the last size is kept for the next call."""
-    sim = ws.Simulator(oscillator(k=1.0), integrator="rk45", device="cpu")
-    sim.integrator = solver = RecordingRK45(sim.dynamics, rtol=1e-6, atol=1e-9, first_step=1e-6)
+    solver = RecordingRK45(rtol=1e-6, atol=1e-9, first_step=1e-6)
+    sim = ws.Simulator(oscillator(k=1.0), integrator=solver, device="cpu")
     sim.step(2.0)
     sizes = [s for _, s, _ in solver.trials]
     accepted = [e <= 1.0 for _, _, e in solver.trials]
@@ -150,7 +151,7 @@ def test_torque_free_body_conserves_L_and_energy_to_the_tolerance():
     L exact to 1e-12, kinetic energy to 10 rtol = 1e-9 relative at rtol 1e-10, unit quaternion."""
     scene = ws.Scene(gravity=(0.0, 0.0, 0.0), precision="float64")
     scene.add_rigid_body(LAMINA, angular_velocity=OMEGA0)
-    sim = ws.Simulator(scene, integrator="rk45", device="cpu", rtol=1e-10, atol=1e-12)
+    sim = ws.Simulator(scene, integrator=ws.RK45(rtol=1e-10, atol=1e-12), device="cpu")
 
     def energy_and_L():
         _, omega = (a.numpy()[0] for a in sim.body_velocities())
@@ -180,7 +181,7 @@ def test_every_component_in_one_scene():
                          angular_velocity=(0.0, 1.0, 2.0))
     scene.add_emitter(rate=50.0, lifetime=0.5, position=(-1.0, 0.5, 0.0), speed=(1.0, 2.0), seed=1)
     scene.add_field(ws.Vortex(position=(0.0, 0.0, 0.0), axis=(0.0, 1.0, 0.0), strength=0.5))
-    sim = ws.Simulator(scene, integrator="rk45", device="cpu", rtol=1e-6, atol=1e-8)
+    sim = ws.Simulator(scene, integrator=ws.RK45(rtol=1e-6, atol=1e-8), device="cpu")
     sim.run(seconds=0.45, fps=20, substeps=1, progress=False)     # frames 0 .. 8: the last at 0.4 s
     assert sim.time == pytest.approx(0.4, abs=1e-12)
     for name in ("particle_x", "particle_v", "body_x", "body_q", "body_P", "body_L"):
@@ -194,7 +195,7 @@ def test_every_component_in_one_scene():
                                          ("atol", float("inf"))])
 def test_bad_tolerances_name_the_argument(name, value):
     with pytest.raises(ValueError, match=f"^{name}=") as caught:
-        ws.Simulator(oscillator(), integrator="rk45", device="cpu", **{name: value})
+        ws.RK45(**{name: value})
     message = str(caught.value)
     assert "must be" in message
 
@@ -206,37 +207,34 @@ def test_float32_runs_at_the_default_tolerance_and_rejects_a_tighter_rtol_than_i
     x, _ = particle(sim, 1)
     assert x[0] == pytest.approx(1.0 + 0.1 * math.cos(2.0 * 1.0), abs=1e-5)
     with pytest.raises(ValueError, match="rtol=1e-07 is invalid.*float32"):
-        ws.Simulator(oscillator(precision="float32"), integrator="rk45", device="cpu", rtol=1e-7)
+        ws.Simulator(oscillator(precision="float32"), integrator=ws.RK45(rtol=1e-7), device="cpu")
 
 
 @pytest.mark.parametrize("integrator", ["rk4", "verlet", "implicit_euler"])
 def test_tolerances_for_a_fixed_step_integrator_raise(integrator):
     with pytest.raises(ValueError, match="rtol=1e-06 is invalid.*'rk45' only"):
-        ws.Simulator(oscillator(), integrator=integrator, device="cpu", rtol=1e-6)
+        make_integrator(integrator, rtol=1e-6)
     with pytest.raises(ValueError, match="atol=1e-09 is invalid.*'rk45' only"):
-        ws.Simulator(oscillator(), integrator=integrator, device="cpu", atol=1e-9)
+        make_integrator(integrator, atol=1e-9)
 
 
 def test_make_integrator_options():
-    sim = ws.Simulator(oscillator(), integrator="rk4", device="cpu")
-    solver = make_integrator("rk45", sim.dynamics, rtol=1e-7, atol=1e-10, max_steps=50)
+    solver = make_integrator("rk45", rtol=1e-7, atol=1e-10, max_steps=50)
     assert (solver.rtol, solver.atol, solver.max_steps) == (1e-7, 1e-10, 50)
-    assert make_integrator("implicit_euler", sim.dynamics, tolerance=1e-8).tolerance == 1e-8
+    assert make_integrator("implicit_euler", tolerance=1e-8).tolerance == 1e-8
     with pytest.raises(ValueError, match="tolerance=.*'implicit_euler' only"):
-        make_integrator("rk45", sim.dynamics, tolerance=1e-8)
+        make_integrator("rk45", tolerance=1e-8)
     with pytest.raises(ValueError, match="bogus=1 is invalid.*no integrator takes 'bogus'"):
-        make_integrator("rk45", sim.dynamics, bogus=1)
+        make_integrator("rk45", bogus=1)
     with pytest.raises(ValueError, match="integrator='rk54'.*'rk45'"):
         ws.Simulator(oscillator(), integrator="rk54", device="cpu")
 
 
 def test_too_many_steps_and_step_underflow_raise_naming_the_time():
-    sim = ws.Simulator(oscillator(k=100.0), integrator="rk45", device="cpu")
-    sim.integrator = RK45(sim.dynamics, rtol=1e-10, max_steps=5)
+    sim = ws.Simulator(oscillator(k=100.0), integrator=RK45(rtol=1e-10, max_steps=5), device="cpu")
     with pytest.raises(AdaptiveStepFailed, match=r"at t = [0-9.e-]+ s: 5 internal steps \(max_steps\)"):
         sim.step(1.0)
-    sim = ws.Simulator(oscillator(k=100.0), integrator="rk45", device="cpu")
-    sim.integrator = RK45(sim.dynamics, rtol=1e-10)
+    sim = ws.Simulator(oscillator(k=100.0), integrator=RK45(rtol=1e-10), device="cpu")
     sim.integrator.min_step_fraction = 0.5            # a floor the tolerance cannot meet
     with pytest.raises(ws.SimulationDiverged, match="adaptive step failed at t = 0 s: the step size") as caught:
         sim.step(1.0)

@@ -6,7 +6,7 @@ import trimesh
 from pxr import Usd, UsdGeom
 
 import warp_sim as ws
-from warp_sim.simulator import stage_layout
+from warp_sim.stages import stage_layout
 from warp_sim.stages import MeshSpec, PointsGroup, StageLayout, StageWriter, validate_stage
 
 N = 9

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from warp_sim.shapes import (
+from warp_sim.scene.shapes import (
     Box,
     Capsule,
     Cylinder,

@@ -9,7 +9,7 @@ import pytest
 import warp as wp
 
 import warp_sim as ws
-from warp_sim.fields import Attractor, Turbulence, Vortex
+from warp_sim import Attractor, Turbulence, Vortex
 from warp_sim.kernels import fields as field_kernels
 
 GM = 2.0                                    # [m^3/s^2]
@@ -268,7 +268,7 @@ import warp_sim as ws
 scene = ws.Scene()
 scene.add_particles([[0.0, 1.0, 0.0]])
 if sys.argv[1] == "field":
-    from warp_sim.fields import Vortex
+    from warp_sim import Vortex
     scene.add_field(Vortex((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 1.0))
 sim = ws.Simulator(scene, integrator="symplectic_euler", device="cpu")
 sim.step(0.01, steps=3)

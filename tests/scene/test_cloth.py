@@ -10,8 +10,8 @@ import pytest
 import trimesh
 
 import warp_sim as ws
-from warp_sim import cloth
-from warp_sim.rotations import quat_to_matrix
+from warp_sim.scene import cloth
+from warp_sim.util.rotations import quat_to_matrix
 
 RTOL = 1e-12
 

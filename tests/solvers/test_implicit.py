@@ -14,15 +14,12 @@ import pytest
 from helpers import G, oscillator, particle, run_steps
 
 import warp_sim as ws
-from warp_sim.implicit import ImplicitEuler
+from warp_sim import ImplicitEuler
 
 
 def implicit(scene, device="cpu", **options):
     """A Simulator on ``scene`` stepping with ImplicitEuler(**options)."""
-    sim = ws.Simulator(scene, integrator="implicit_euler", device=device)
-    if options:
-        sim.integrator = ImplicitEuler(sim.dynamics, **options)
-    return sim
+    return ws.Simulator(scene, integrator=ImplicitEuler(**options), device=device)
 
 
 def test_registered_and_first_order():
@@ -333,9 +330,8 @@ def test_without_springs_or_drag_it_is_symplectic_euler_for_particles_and_bodies
     ({"preconditioner": "ilu"}, "preconditioner"), ({"check_every": 0}, "check_every"),
     ({"absolute_tolerance": -1.0}, "absolute_tolerance")])
 def test_bad_options_raise_value_error_naming_the_argument(options, name):
-    sim = ws.Simulator(oscillator(), integrator="euler", device="cpu")
     with pytest.raises(ValueError, match=f"^{name}="):
-        ImplicitEuler(sim.dynamics, **options)
+        ImplicitEuler(**options)
 
 
 @pytest.mark.parametrize("preconditioner", ["block_jacobi", "diag", "none"])
