@@ -14,7 +14,7 @@ import numpy as np
 import warp as wp
 
 from warp_sim import Simulator
-from warp_sim.launcher import Launcher
+from warp_sim.core.launcher import Launcher
 from warp_sim.simulator import resolve_device
 
 wp.config.log_level = wp.LOG_WARNING  # no per-module load messages (they are printed at launch, not import)

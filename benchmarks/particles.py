@@ -23,7 +23,7 @@ same copy bandwidth. Not counted: what a real step must also touch (inv_mass, ra
 the ages written back, the births' writes), so the floor is a lower bound on traffic.
 Also reported: the share of each kernel in a step (every launch synchronised and timed on
 its own, common.KernelProfile), and the USD write cost per frame (the state fetched to
-numpy with sim._frame_arrays(), StageWriter.write_frame, and the final save, per frame, in
+numpy with sim.frame_arrays(), StageWriter.write_frame, and the final save, per frame, in
 a .usdc with the chunking Simulator.run uses) and the file's size per frame. Results in
 --emitter-out. See benchmarks/README.md.
 """
@@ -44,8 +44,7 @@ from common import KernelProfile, floor_setup, markdown, time_steps
 
 import warp_sim as ws
 from warp_sim import Scene, Simulator
-from warp_sim.simulator import stage_layout
-from warp_sim.stages import StageWriter
+from warp_sim.stages import StageWriter, stage_layout
 
 DT = 1.0 / 480.0  # [s], 60 fps with 8 substeps
 STATE_BYTES = 2 * 24  # per particle and step: x and v (2 x 12 B) read once and written once
@@ -86,8 +85,7 @@ def phase_breakdown(sim: Simulator, steps: int) -> dict:
     for name, obj, attr in patched:
         setattr(obj, attr, timed(name, getattr(obj, attr)))
     try:
-        for _ in range(steps):
-            sim._advance(DT)
+        sim.step(DT, steps=steps)
         sim.check()
     finally:
         for _, obj, attr in patched:
@@ -130,12 +128,12 @@ def make_emitter_scene(live: int, lifetime: float) -> Scene:
 
 def usd_write(sim: Simulator, frames: int, directory: Path) -> dict:
     """Write `frames` frames of sim (SUBSTEPS steps apart, not timed) to a .usdc: seconds fetching the state
-    (sim._frame_arrays()), in write_frame (checks, authoring, the periodic saves) and in close (the last save),
+    (sim.frame_arrays()), in write_frame (checks, authoring, the periodic saves) and in close (the last save),
     and the file's size. Chunked as Simulator.run chunks (its default rule, restated here)."""
     particles = sim.model.particle_count
     chunk_frames = int(min(240, max(1, 256 * 2**20 // (40 * particles + 28 * sim.model.body_count + 1))))
     path = directory / "emitter.usdc"
-    writer = StageWriter(path, FPS, stage_layout(sim.model.scene), chunk_frames)
+    writer = StageWriter(path, FPS, stage_layout(sim.scene), chunk_frames)
     fetch = write = 0.0
     points = []
     try:
@@ -144,7 +142,7 @@ def usd_write(sim: Simulator, frames: int, directory: Path) -> dict:
                 sim.step(1.0 / (FPS * SUBSTEPS), steps=SUBSTEPS)
             wp.synchronize_device(sim.device)
             start = time.perf_counter()
-            arrays = sim._frame_arrays()
+            arrays = sim.frame_arrays()
             middle = time.perf_counter()
             writer.write_frame(frame, **arrays)
             end = time.perf_counter()
@@ -181,8 +179,7 @@ def bench_emitter(live: int, lifetime: float, device: str, steps: int, repeats: 
 
     profile_steps = max(1, steps // 2)
     profile.enabled = True
-    for _ in range(profile_steps):
-        sim._advance(DT)
+    sim.step(DT, steps=profile_steps)
     profile.enabled = False
     sim.check()
     kernels = profile.per_step(profile_steps)

@@ -102,8 +102,7 @@ class Simulator:
         x = self.state.body_x.numpy()[index].astype(np.float64)
         p = x if point is None else checks.vec3("point", point)
         m = self.model
-        wp.launch(rigid_kernels.apply_impulse, 1, [index, m.vec3(*J), m.vec3(*p), self.state.body_x,
-                                                  self.state.body_P, self.state.body_L], device=m.device)
+        wp.launch(rigid_kernels.apply_impulse, 1, [index, m.vec3(*J), m.vec3(*p), self.state.bodies], device=m.device)
 
     def set_body_force(self, body: int, force=(0.0, 0.0, 0.0), point=None, torque=(0.0, 0.0, 0.0)) -> None:
         """Hold a force [N] at world point ``point`` [m] (default: the centre of mass) and a pure torque

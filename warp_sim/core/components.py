@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from ..kernels import blocks, integrate
 from ..kernels import guards as guard_kernels
-from ..kernels import integrate
 from ..kernels import particles as particle_kernels
 from ..kernels import rigid as rigid_kernels
 from .control import Control
@@ -46,7 +46,7 @@ class Particles(Component):
         self.model.launch(integrate.copy, self.model.particle_count, [velocities.particle_v, out.particle_x])
 
     def guard_inputs(self, state: State):
-        return guard_kernels.check_finite_and_bounded, [state.particle_x, state.particle_v]
+        return guard_kernels.check_finite_and_bounded, self.model.particle_count, [state.particle_x, state.particle_v]
 
     def describe(self, state: State, element: int) -> str:
         return (f"x = {_show(state.particle_x.numpy()[element], 'm')}, "
@@ -74,6 +74,11 @@ class RigidBodies(Component):
         self.fields = [StateField("body_x", "position", 3, count), StateField("body_q", "position", 4, count),
                        StateField("body_P", "velocity", 3, count), StateField("body_L", "velocity", 3, count)]
 
+    def attach(self, state: State) -> None:
+        """state.bodies: the body fields as a kernels.blocks Bodies struct."""
+        state.bodies = blocks.fill(self.model.blocks.Bodies, x=state.body_x, q=state.body_q, P=state.body_P,
+                                   L=state.body_L)
+
     def set_initial(self, state: State, scene) -> None:
         dtype = self.model.numpy_scalar
         for field, key in (("body_x", "position"), ("body_q", "orientation"), ("body_P", "momentum"),
@@ -83,15 +88,13 @@ class RigidBodies(Component):
     def velocity_derivative(self, state: State, t: float, out: State) -> None:
         m, f, c = self.model, self.forces, self.control
         m.launch(rigid_kernels.body_momentum_rates, m.body_count,
-                 [state.body_q, state.body_P, state.body_L, m.body_inv_mass, m.body_inv_inertia, m.body_drag,
-                  m.body_angular_drag, m.gravity, m.wind, c.body_force, c.body_torque, f.body_f,
-                  f.body_t, out.body_P, out.body_L])
+                 [state.bodies, m.body_mass, m.body_drag, m.body_angular_drag, m.gravity, m.wind, c.held,
+                  f.body_wrench, out.bodies])
 
     def position_derivative(self, positions: State, velocities: State, out: State) -> None:
         m = self.model
-        m.launch(rigid_kernels.body_position_rates, m.body_count,
-                 [positions.body_q, velocities.body_P, velocities.body_L, m.body_inv_mass, m.body_inv_inertia,
-                  out.body_x, out.body_q])
+        m.launch(rigid_kernels.body_position_rates, m.body_count, [positions.bodies, velocities.bodies,
+                                                                   m.body_mass, out.bodies])
 
     def post_step(self, state: State) -> None:
         self.model.launch(rigid_kernels.normalize_orientations, self.model.body_count, [state.body_q])
@@ -99,12 +102,10 @@ class RigidBodies(Component):
     def velocities(self, state: State, v: wp.array, omega: wp.array) -> None:
         """Write the auxiliaries v = P / M [m/s] and omega [rad/s] of ``state`` into v and omega."""
         m = self.model
-        m.launch(rigid_kernels.body_velocities, m.body_count,
-                 [state.body_q, state.body_P, state.body_L, m.body_inv_mass, m.body_inv_inertia, v, omega])
+        m.launch(rigid_kernels.body_velocities, m.body_count, [state.bodies, m.body_mass, v, omega])
 
     def guard_inputs(self, state: State):
-        return guard_kernels.check_bodies, [state.body_x, state.body_q, state.body_P, state.body_L,
-                                            self.model.body_inv_mass]
+        return guard_kernels.check_bodies, self.model.body_count, [state.bodies, self.model.body_mass]
 
     def describe(self, state: State, element: int) -> str:
         values = {name: getattr(state, name).numpy()[element] for name in ("body_x", "body_q", "body_P", "body_L")}

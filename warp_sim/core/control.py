@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from ..kernels import blocks
 from .model import Model
 
 
@@ -12,12 +13,15 @@ class Control:
 
     body_force: per body, a force held on its centre of mass [N], world frame (vec3); None without bodies
     body_torque: per body, a held torque about its centre of mass [N m], world frame (vec3); None without bodies
+    held: body_force and body_torque as a kernels.blocks Wrench (None without bodies)
     """
 
     def __init__(self, model: Model):
         self.model = model
         self.body_force = model.zeros(model.body_count, model.vec3) if model.body_count else None
         self.body_torque = model.zeros(model.body_count, model.vec3) if model.body_count else None
+        self.held = blocks.fill(blocks.of(model.scalar).Wrench, force=self.body_force, torque=self.body_torque) \
+            if model.body_count else None
 
     def set_body_wrench(self, index: int, force: np.ndarray, torque: np.ndarray) -> None:
         """Hold ``force`` [N] and ``torque`` [N m] (world frame, about the centre of mass) on body ``index``."""

@@ -32,7 +32,10 @@ class Dynamics:
 
     def new_state(self) -> State:
         """A zeroed state of this system's layout on the model's device."""
-        return State(self.layout, self.model.scalar, self.model.device)
+        state = State(self.layout, self.model.scalar, self.model.device)
+        for component in self.components:
+            component.attach(state)
+        return state
 
     def initial_state(self, scene) -> State:
         """A state holding the scene's initial values."""

@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from ..kernels import guards as guard_kernels
+
 NO_RECORD = np.iinfo(np.int32).max
 
 
@@ -34,8 +36,10 @@ class Guard:
         self.max_speed = max_speed
         self._max_speed = model.scalar(max_speed)
         self.launch = model.launch
-        self.records = [(wp.full(1, NO_RECORD, dtype=wp.int32, device=model.device),
-                         wp.full(1, NO_RECORD, dtype=wp.int32, device=model.device)) for _ in self.components]
+        self.records = [guard_kernels.GuardRecord() for _ in self.components]
+        for record in self.records:
+            record.first_step = wp.full(1, NO_RECORD, dtype=wp.int32, device=model.device)
+            record.first_key = wp.full(1, NO_RECORD, dtype=wp.int32, device=model.device)
         self.step_times: dict[int, float] = {}   # end time of each step since the last check
 
     max_unchecked_steps = 1 << 20
@@ -45,17 +49,17 @@ class Guard:
         if len(self.step_times) >= self.max_unchecked_steps:   # never checked: keep memory bounded
             self.step_times.clear()
         self.step_times[step] = time
-        for component, (first_step, first_key) in zip(self.components, self.records):
-            kernel, inputs = component.guard_inputs(state)
-            self.launch(kernel, inputs[0].shape[0], [*inputs, self._max_speed, step, first_step, first_key])
+        for component, record in zip(self.components, self.records):
+            kernel, count, inputs = component.guard_inputs(state)
+            self.launch(kernel, count, [*inputs, self._max_speed, step, record])
 
     def raise_if_diverged(self, state) -> None:
         """Read the records (a device sync) and raise SimulationDiverged for the earliest bad step."""
         found = []
-        for component, (first_step, first_key) in zip(self.components, self.records):
-            step = int(first_step.numpy()[0])
+        for component, record in zip(self.components, self.records):
+            step = int(record.first_step.numpy()[0])
             if step != NO_RECORD:
-                found.append((step, component, int(first_key.numpy()[0])))
+                found.append((step, component, int(record.first_key.numpy()[0])))
         if not found:
             self.step_times.clear()
             return

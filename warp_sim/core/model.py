@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from ..kernels import blocks
 from ..scene import Scene
 from .launcher import Launcher
 
@@ -39,6 +40,7 @@ class Model:
     body_inv_mass [1/kg], body_inv_inertia: I_body^-1, body frame [1/(kg m^2)], body_drag [N s/m],
         body_angular_drag [N m s/rad], body_restitution, body_friction
     plane_normal (unit), plane_offset [m], plane_restitution, plane_friction: planes normal . x = offset
+    springs, planes, particle_material, body_mass: the same arrays as kernels.blocks structs (None where absent)
 
     The one exception to "constant": an emitter pool (passes.emitters) sets the inverse mass and
     radius of its own slots at births and deaths; every other array is written once, here.
@@ -61,8 +63,9 @@ class Model:
         self.spring_count = scene.spring_count
         self.plane_count = len(scene.planes)
         self.body_count = scene.body_count
-        for name in _ARRAYS:
+        for name in _ARRAYS + ("springs", "planes", "particle_material", "body_mass"):
             setattr(self, name, None)
+        self.blocks = blocks.of(self.scalar)
         if self.particle_count:
             self._build_particles(scene)
         if self.spring_count:
@@ -81,23 +84,32 @@ class Model:
             values = scene.particle_array(key)
             own = values if np.any(values >= 0.0) else np.zeros(0)
             setattr(self, f"particle_{key}", _array(own, self.scalar, self.device))
+        self.particle_material = blocks.fill(self.blocks.ParticleMaterial, inv_mass=self.particle_inv_mass,
+                                             radius=self.particle_radius, restitution=self.particle_restitution,
+                                             friction=self.particle_friction)
 
     def _build_springs(self, scene: Scene) -> None:
         self.spring_pairs = _array(scene.spring_array("pairs").astype(np.int32), wp.vec2i, self.device)
         for key in ("stiffness", "damping", "rest_length"):
             setattr(self, f"spring_{key}", _array(scene.spring_array(key), self.scalar, self.device))
+        self.springs = blocks.fill(self.blocks.Springs, pairs=self.spring_pairs, stiffness=self.spring_stiffness,
+                                   damping=self.spring_damping, rest_length=self.spring_rest_length)
 
     def _build_bodies(self, scene: Scene) -> None:
         self.body_inv_mass = _array(1.0 / scene.body_array("mass"), self.scalar, self.device)
         self.body_inv_inertia = _array(np.linalg.inv(scene.body_array("inertia")), self.mat33, self.device)
         for key in ("drag", "angular_drag", "restitution", "friction"):
             setattr(self, f"body_{key}", _array(scene.body_array(key), self.scalar, self.device))
+        self.body_mass = blocks.fill(self.blocks.BodyMass, inv_mass=self.body_inv_mass,
+                                     inv_inertia=self.body_inv_inertia)
 
     def _build_planes(self, scene: Scene) -> None:
         planes = scene.planes
         self.plane_normal = _array([p.normal for p in planes], self.vec3, self.device)
         for key in ("offset", "restitution", "friction"):
             setattr(self, f"plane_{key}", _array([getattr(p, key) for p in planes], self.scalar, self.device))
+        self.planes = blocks.fill(self.blocks.Planes, normal=self.plane_normal, offset=self.plane_offset,
+                                  restitution=self.plane_restitution, friction=self.plane_friction)
 
     def empty(self, dtype=None):
         """A zero-length array of this model's scalar (or the given) type, for absent optional inputs."""

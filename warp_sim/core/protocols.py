@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from ..kernels import blocks
 from .model import Model
 from .state import State, StateField
 
@@ -29,6 +30,9 @@ class Component:
     position_rates_need_positions = False
     guard_reasons = {0: "non-finite position", 1: "non-finite velocity", 2: "speed above max_speed"}
 
+    def attach(self, state: State) -> None:
+        """Give a new state what the component's kernels take besides its field views (e.g. block structs)."""
+
     def set_initial(self, state: State, scene) -> None:
         """Write the scene's initial values into ``state``."""
 
@@ -43,7 +47,8 @@ class Component:
         """Project the state after a step (e.g. renormalise orientations)."""
 
     def guard_inputs(self, state: State):
-        """(guard kernel, its leading inputs): the kernel takes these, then max_speed, step and the records."""
+        """(guard kernel, element count, its leading inputs): the kernel takes these, then max_speed, step and
+        the record (kernels.guards)."""
         raise NotImplementedError
 
     def describe(self, state: State, element: int) -> str:
@@ -83,6 +88,7 @@ class Forces:
     particle_f: per particle [N]
     body_f: per body [N]
     body_t: per body, torque about the centre of mass [N m]
+    body_wrench: body_f and body_t as a kernels.blocks Wrench
     """
 
     def __init__(self, model: Model, targets: set):
@@ -92,6 +98,7 @@ class Forces:
         self.particle_f = accumulator("particles", model.particle_count)
         self.body_f = accumulator("bodies", model.body_count)
         self.body_t = accumulator("bodies", model.body_count)
+        self.body_wrench = blocks.fill(blocks.of(model.scalar).Wrench, force=self.body_f, torque=self.body_t)
         self.arrays = [a for a in (self.particle_f, self.body_f, self.body_t) if a.shape[0] > 0]
 
     def clear(self) -> None:

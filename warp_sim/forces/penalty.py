@@ -19,9 +19,8 @@ class PlanePenalty(ForceTerm):
     def apply(self, state: State, t: float, forces: Forces) -> None:
         m = self.model
         m.launch(penalty_kernels.plane_penalty_forces, m.particle_count,
-                 [state.particle_x, state.particle_v, m.particle_inv_mass, m.particle_radius,
-                  m.particle_restitution, m.particle_friction, m.plane_normal, m.plane_offset, m.plane_restitution,
-                  m.plane_friction, self.stiffness, forces.particle_f])
+                 [state.particle_x, state.particle_v, m.particle_material, m.planes, self.stiffness,
+                  forces.particle_f])
 
 
 class BodyPenalty(ForceTerm):

@@ -16,5 +16,4 @@ class Springs(ForceTerm):
     def apply(self, state: State, t: float, forces: Forces) -> None:
         m = self.model
         m.launch(spring_kernels.spring_forces, m.spring_count,
-                 [state.particle_x, state.particle_v, m.spring_pairs, m.spring_stiffness, m.spring_damping,
-                  m.spring_rest_length, forces.particle_f])
+                 [state.particle_x, state.particle_v, m.springs, forces.particle_f])

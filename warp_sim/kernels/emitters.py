@@ -67,19 +67,58 @@ def ramp_value(keys: wp.array(dtype=float), values: wp.array(dtype=wp.vec4f), s:
     return values[k - 1] + f * (values[k] - values[k - 1])
 
 
+@wp.struct
+class Ramps:
+    """An emitter's ramps over normalised age: keys ascending in [0, 1], values as vec4 (RGB, or the value first)."""
+    color_keys: wp.array(dtype=float)
+    color_values: wp.array(dtype=wp.vec4f)
+    opacity_keys: wp.array(dtype=float)
+    opacity_values: wp.array(dtype=wp.vec4f)
+    size_keys: wp.array(dtype=float)
+    size_values: wp.array(dtype=wp.vec4f)   # radius [m]
+
+
+@wp.struct
+class MeshSurface:
+    """A mesh emitter's triangles (a, b, c) [m], world frame, and their cumulative area fractions cdf."""
+    cdf: wp.array(dtype=float)
+    a: wp.array(dtype=wp.vec3f)
+    b: wp.array(dtype=wp.vec3f)
+    c: wp.array(dtype=wp.vec3f)
+
+
+@wp.struct
+class Pool:
+    """One emitter's slots (indexed by slot; the particle is start + slot): alive (1/0), ids, birth, age and
+    lifetime [s] (float64), color (RGB), opacity; the free stack free_slots[0 .. free_count[0] - 1]."""
+    alive: wp.array(dtype=wp.int32)
+    ids: wp.array(dtype=wp.int64)
+    birth: wp.array(dtype=wp.float64)
+    age: wp.array(dtype=wp.float64)
+    lifetime: wp.array(dtype=wp.float64)
+    color: wp.array(dtype=wp.vec3f)
+    opacity: wp.array(dtype=float)
+    free_slots: wp.array(dtype=int)
+    free_count: wp.array(dtype=int)
+
+
+@wp.struct
+class KillPlanes:
+    """Planes behind which an emitter's particles die: n . x < offset [m] (float32)."""
+    normal: wp.array(dtype=wp.vec3f)
+    offset: wp.array(dtype=float)
+
+
 @wp.func
-def ramped_attributes(e: Any, s: float, color_keys: wp.array(dtype=float), color_values: wp.array(dtype=wp.vec4f),
-                      opacity_keys: wp.array(dtype=float), opacity_values: wp.array(dtype=wp.vec4f),
-                      size_keys: wp.array(dtype=float), size_values: wp.array(dtype=wp.vec4f), rgb: wp.vec3f,
-                      alpha: float, size: float):
+def ramped_attributes(e: Any, s: float, ramps: Ramps, rgb: wp.vec3f, alpha: float, size: float):
     """(colour, opacity, size) at normalised age s: each from its ramp where the emitter has one, else as given."""
     if e.color_ramp == 1:
-        c = ramp_value(color_keys, color_values, s)
+        c = ramp_value(ramps.color_keys, ramps.color_values, s)
         rgb = wp.vec3f(c[0], c[1], c[2])
     if e.opacity_ramp == 1:
-        alpha = ramp_value(opacity_keys, opacity_values, s)[0]
+        alpha = ramp_value(ramps.opacity_keys, ramps.opacity_values, s)[0]
     if e.size_ramp == 1:
-        size = ramp_value(size_keys, size_values, s)[0]
+        size = ramp_value(ramps.size_keys, ramps.size_values, s)[0]
     return rgb, alpha, size
 
 
@@ -107,28 +146,29 @@ class EmitterParams:
 
 
 @wp.func
-def sample_mesh_surface(state: wp.uint32, cdf: wp.array(dtype=float), a: wp.array(dtype=wp.vec3f),
-                        b: wp.array(dtype=wp.vec3f), c: wp.array(dtype=wp.vec3f)):
-    """(point, unit normal) uniform by area over triangles (a, b, c), cdf = cumulative area fractions."""
+def sample_mesh_surface(state: wp.uint32, mesh: MeshSurface):
+    """(point, unit normal) uniform by area over the mesh's triangles."""
     r = wp.randf(state)
     lo = int(0)
-    hi = cdf.shape[0] - 1
+    hi = mesh.cdf.shape[0] - 1
     while lo < hi:
         mid = (lo + hi) // 2
-        if cdf[mid] < r:
+        if mesh.cdf[mid] < r:
             lo = mid + 1
         else:
             hi = mid
     s = wp.sqrt(wp.randf(state))
     t = wp.randf(state)
-    p = (1.0 - s) * a[lo] + s * (1.0 - t) * b[lo] + s * t * c[lo]
-    n = wp.normalize(wp.cross(b[lo] - a[lo], c[lo] - a[lo]))
+    a = mesh.a[lo]
+    b = mesh.b[lo]
+    c = mesh.c[lo]
+    p = (1.0 - s) * a + s * (1.0 - t) * b + s * t * c
+    n = wp.normalize(wp.cross(b - a, c - a))
     return p, n
 
 
 @wp.func
-def sample_position(state: wp.uint32, e: EmitterParams, cdf: wp.array(dtype=float), a: wp.array(dtype=wp.vec3f),
-                    b: wp.array(dtype=wp.vec3f), c: wp.array(dtype=wp.vec3f)):
+def sample_position(state: wp.uint32, e: EmitterParams, mesh: MeshSurface):
     """(offset from the emitter's position [m], outward unit normal there) for the emitter's shape."""
     offset = wp.vec3f()
     normal = e.axis
@@ -147,7 +187,7 @@ def sample_position(state: wp.uint32, e: EmitterParams, cdf: wp.array(dtype=floa
         offset = wp.cw_mul(e.extent, wp.vec3f(2.0 * wp.randf(state) - 1.0, 2.0 * wp.randf(state) - 1.0,
                                               2.0 * wp.randf(state) - 1.0))
     elif e.shape == SHAPE_MESH:
-        p, n = sample_mesh_surface(state, cdf, a, b, c)
+        p, n = sample_mesh_surface(state, mesh)
         offset = p
         normal = n
     return offset, normal
@@ -161,47 +201,30 @@ def emit(
     id_base: wp.int64,
     first_age: wp.float64,
     age_step: wp.float64,
-    free_slots: wp.array(dtype=int),
-    free_count: wp.array(dtype=int),
-    mesh_cdf: wp.array(dtype=float),
-    mesh_a: wp.array(dtype=wp.vec3f),
-    mesh_b: wp.array(dtype=wp.vec3f),
-    mesh_c: wp.array(dtype=wp.vec3f),
-    color_keys: wp.array(dtype=float),
-    color_values: wp.array(dtype=wp.vec4f),
-    opacity_keys: wp.array(dtype=float),
-    opacity_values: wp.array(dtype=wp.vec4f),
-    size_keys: wp.array(dtype=float),
-    size_values: wp.array(dtype=wp.vec4f),
+    now: wp.float64,
+    pool: Pool,
+    mesh: MeshSurface,
+    ramps: Ramps,
     x: wp.array(dtype=Any),
     v: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    radius: wp.array(dtype=Any),
-    alive: wp.array(dtype=wp.int32),
-    ids: wp.array(dtype=wp.int64),
-    now: wp.float64,
-    birth: wp.array(dtype=wp.float64),
-    age: wp.array(dtype=wp.float64),
-    lifetime: wp.array(dtype=wp.float64),
-    color: wp.array(dtype=wp.vec3f),
-    opacity: wp.array(dtype=float),
+    material: Any,
 ):
     """Birth j of a batch: particle sequence number first_sequence + j, id id_base + sequence, aged
     first_age - j age_step [s] now (its birth was that long ago) and placed ballistically since.
 
-    Takes free_slots[free_count - 1 - j] (slot indices within the pool); a birth
+    Takes pool.free_slots[free_count - 1 - j] (slot indices within the pool); a birth
     with no free slot does nothing (commit_births counts it). Writes x [m], v [m/s],
-    inv_mass [1/kg] and radius [m] of the global particle arrays at start + slot,
-    and the pool's own arrays (indexed by slot).
+    material.inv_mass [1/kg] and material.radius [m] of the global particle arrays at
+    start + slot, and the pool's own arrays (indexed by slot).
     """
     j = wp.tid()
-    top = free_count[0]
+    top = pool.free_count[0]
     if j >= top:
         return
-    slot = free_slots[top - 1 - j]
+    slot = pool.free_slots[top - 1 - j]
     sequence = first_sequence + j
     state = wp.rand_init(e.seed, sequence)
-    offset, normal = sample_position(state, e, mesh_cdf, mesh_a, mesh_b, mesh_c)
+    offset, normal = sample_position(state, e, mesh)
     axis = e.axis
     if e.radial == 1:
         axis = normal
@@ -222,19 +245,18 @@ def emit(
     zero = x[i][0] * type(x[i][0])(0.0)
     x[i] = type(x[i])(type(zero)(p[0]), type(zero)(p[1]), type(zero)(p[2]))
     v[i] = type(v[i])(type(zero)(velocity[0]), type(zero)(velocity[1]), type(zero)(velocity[2]))
-    inv_mass[i] = type(zero)(1.0 / mass)
-    alive[slot] = 1
-    ids[slot] = id_base + wp.int64(sequence)
-    birth[slot] = now - age_now
-    age[slot] = age_now
-    lifetime[slot] = life
+    material.inv_mass[i] = type(zero)(1.0 / mass)
+    pool.alive[slot] = 1
+    pool.ids[slot] = id_base + wp.int64(sequence)
+    pool.birth[slot] = now - age_now
+    pool.age[slot] = age_now
+    pool.lifetime[slot] = life
     rgb = e.color_low + mix * (e.color_high - e.color_low)
     s = float(wp.min(age_now / life, wp.float64(1.0)))
-    rgb, alpha, size = ramped_attributes(e, s, color_keys, color_values, opacity_keys, opacity_values, size_keys,
-                                         size_values, rgb, alpha, size)
-    radius[i] = type(zero)(size)
-    color[slot] = rgb
-    opacity[slot] = alpha
+    rgb, alpha, size = ramped_attributes(e, s, ramps, rgb, alpha, size)
+    material.radius[i] = type(zero)(size)
+    pool.color[slot] = rgb
+    pool.opacity[slot] = alpha
 
 
 @wp.kernel
@@ -252,67 +274,52 @@ def commit_births(births: int, free_count: wp.array(dtype=int), born: wp.array(d
 def age_and_kill(
     e: EmitterParams,
     start: int,
-    kill_normal: wp.array(dtype=wp.vec3f),
-    kill_offset: wp.array(dtype=float),
     now: wp.float64,
-    contact_normal: wp.array(dtype=Any),
-    contact_offset: wp.array(dtype=Any),
+    kill: KillPlanes,
+    planes: Any,
     touched: wp.array(dtype=wp.int32),
-    color_keys: wp.array(dtype=float),
-    color_values: wp.array(dtype=wp.vec4f),
-    opacity_keys: wp.array(dtype=float),
-    opacity_values: wp.array(dtype=wp.vec4f),
-    size_keys: wp.array(dtype=float),
-    size_values: wp.array(dtype=wp.vec4f),
+    pool: Pool,
+    ramps: Ramps,
     x: wp.array(dtype=Any),
     v: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    radius: wp.array(dtype=Any),
-    alive: wp.array(dtype=wp.int32),
-    birth: wp.array(dtype=wp.float64),
-    age: wp.array(dtype=wp.float64),
-    lifetime: wp.array(dtype=wp.float64),
-    color: wp.array(dtype=wp.vec3f),
-    opacity: wp.array(dtype=float),
-    free_slots: wp.array(dtype=int),
-    free_count: wp.array(dtype=int),
+    material: Any,
 ):
     """Age every live particle of the pool to now - birth [s] (float64); kill those past their
-    lifetime (within 1e-9 s), behind a kill plane (n . x < offset) or, where contact planes are
-    given, touching one (flagged in touched by the impulse pass, or within radius + 1e-6 m);
+    lifetime (within 1e-9 s), behind a kill plane (n . x < offset) or, where contact ``planes`` are
+    given (a kernels.blocks Planes, empty otherwise), touching one (flagged in touched by the impulse pass, or within radius + 1e-6 m);
     update colour, opacity and size from their ramps over normalised age.
 
     A death makes the slot inert (inv_mass 0, v 0, x kept) and pushes it onto free_slots.
     """
     slot = wp.tid()
-    if alive[slot] == 0:
+    if pool.alive[slot] == 0:
         return
     i = start + slot
-    a = now - birth[slot]
-    age[slot] = a
+    a = now - pool.birth[slot]
+    pool.age[slot] = a
     p = x[i]
-    dead = a >= lifetime[slot] - wp.float64(1.0e-9)
+    radius = material.radius[i]
+    dead = a >= pool.lifetime[slot] - wp.float64(1.0e-9)
     if touched.shape[0] > 0:
         if touched[i] != 0:
             dead = True
             touched[i] = 0
-    for k in range(kill_normal.shape[0]):
-        n = kill_normal[k]
-        if float(p[0]) * n[0] + float(p[1]) * n[1] + float(p[2]) * n[2] < kill_offset[k]:
+    for k in range(kill.normal.shape[0]):
+        n = kill.normal[k]
+        if float(p[0]) * n[0] + float(p[1]) * n[1] + float(p[2]) * n[2] < kill.offset[k]:
             dead = True
-    for k in range(contact_normal.shape[0]):
-        if wp.dot(p, contact_normal[k]) - contact_offset[k] <= radius[i] + type(radius[i])(1.0e-6):
+    for k in range(planes.normal.shape[0]):
+        if wp.dot(p, planes.normal[k]) - planes.offset[k] <= radius + type(radius)(1.0e-6):
             dead = True
     if dead:
-        alive[slot] = 0
-        inv_mass[i] = type(inv_mass[i])(0.0)
+        pool.alive[slot] = 0
+        material.inv_mass[i] = type(radius)(0.0)
         v[i] = type(v[i])()
-        top = wp.atomic_add(free_count, 0, 1)
-        free_slots[top] = slot
+        top = wp.atomic_add(pool.free_count, 0, 1)
+        pool.free_slots[top] = slot
         return
-    s = float(wp.min(a / lifetime[slot], wp.float64(1.0)))
-    rgb, alpha, size = ramped_attributes(e, s, color_keys, color_values, opacity_keys, opacity_values, size_keys,
-                                         size_values, color[slot], opacity[slot], float(radius[i]))
-    color[slot] = rgb
-    opacity[slot] = alpha
-    radius[i] = type(radius[i])(size)
+    s = float(wp.min(a / pool.lifetime[slot], wp.float64(1.0)))
+    rgb, alpha, size = ramped_attributes(e, s, ramps, pool.color[slot], pool.opacity[slot], float(radius))
+    pool.color[slot] = rgb
+    pool.opacity[slot] = alpha
+    material.radius[i] = type(radius)(size)

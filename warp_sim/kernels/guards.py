@@ -17,22 +17,25 @@ REASON_VELOCITY = wp.constant(1)  # velocity not finite
 REASON_SPEED = wp.constant(2)  # speed above the bound
 
 
+@wp.struct
+class GuardRecord:
+    """One component's record: first_step[0], the first bad step; first_key[0], 4 * element + reason of that
+    step's lowest bad element (both int32, starting at the int32 maximum 2147483647: none yet)."""
+
+    first_step: wp.array(dtype=wp.int32)
+    first_key: wp.array(dtype=wp.int32)
+
+
 @wp.func
-def record_first_bad(step: int, key: int, first_step: wp.array(dtype=wp.int32), first_key: wp.array(dtype=wp.int32)):
+def record_first_bad(step: int, key: int, record: GuardRecord):
     """Record a bad element (key = 4 * element + reason) at step; the lowest step and key win."""
-    wp.atomic_min(first_step, 0, step)
-    wp.atomic_min(first_key, 0, key)
+    wp.atomic_min(record.first_step, 0, step)
+    wp.atomic_min(record.first_key, 0, key)
 
 
 @wp.kernel
-def check_finite_and_bounded(
-    x: wp.array(dtype=Any),
-    v: wp.array(dtype=Any),
-    max_speed: Any,
-    step: int,
-    first_step: wp.array(dtype=wp.int32),
-    first_key: wp.array(dtype=wp.int32),
-):
+def check_finite_and_bounded(x: wp.array(dtype=Any), v: wp.array(dtype=Any), max_speed: Any, step: int,
+                             record: GuardRecord):
     """Record the first step at which any element is bad, and its lowest bad element.
 
     An element is bad when its position or velocity is not finite or its speed exceeds
@@ -47,11 +50,10 @@ def check_finite_and_bounded(
         v: velocities (vec3) [m/s]
         max_speed: the speed bound [m/s]
         step: the number of the step being checked [1]
-        first_step: one element, the first bad step, int32 max while none [1]
-        first_key: one element, 4 * element + reason of that step's lowest bad element [1]
+        record: the first bad step and its lowest bad element's key (GuardRecord) [1]
     """
     i = wp.tid()
-    if first_step[0] < step:
+    if record.first_step[0] < step:
         return
     xi = x[i]
     vi = v[i]
@@ -67,37 +69,27 @@ def check_finite_and_bounded(
         reason = REASON_POSITION
     elif not wp.isfinite(vi):
         reason = REASON_VELOCITY
-    record_first_bad(step, 4 * i + reason, first_step, first_key)
+    record_first_bad(step, 4 * i + reason, record)
 
 
 @wp.kernel
-def check_bodies(
-    x: wp.array(dtype=Any),
-    q: wp.array(dtype=Any),
-    P: wp.array(dtype=Any),
-    L: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    max_speed: Any,
-    step: int,
-    first_step: wp.array(dtype=wp.int32),
-    first_key: wp.array(dtype=wp.int32),
-):
+def check_bodies(bodies: Any, mass: Any, max_speed: Any, step: int, record: GuardRecord):
     """The rigid-body form of check_finite_and_bounded: position means x and q, velocity
     means P and L, and the speed is |P| / M [m/s]."""
     i = wp.tid()
-    if first_step[0] < step:
+    if record.first_step[0] < step:
         return
-    qi = q[i]
-    v = P[i] * inv_mass[i]
+    qi = bodies.q[i]
+    v = bodies.P[i] * mass.inv_mass[i]
     speed_squared = wp.dot(v, v)
     # one finiteness test on a sum first (the common case); the detailed tests only for the bad
-    xi = x[i]
-    Li = L[i]
+    xi = bodies.x[i]
+    Li = bodies.L[i]
     total = xi[0] + xi[1] + xi[2] + qi[0] + qi[1] + qi[2] + qi[3] + Li[0] + Li[1] + Li[2] + speed_squared
     if wp.isfinite(total) and speed_squared <= max_speed * max_speed:
         return
-    position_ok = wp.isfinite(x[i]) and wp.isfinite(qi)
-    velocity_ok = wp.isfinite(P[i]) and wp.isfinite(L[i])
+    position_ok = wp.isfinite(xi) and wp.isfinite(qi)
+    velocity_ok = wp.isfinite(bodies.P[i]) and wp.isfinite(Li)
     if position_ok and velocity_ok and speed_squared <= max_speed * max_speed:
         return
     reason = REASON_SPEED
@@ -105,4 +97,4 @@ def check_bodies(
         reason = REASON_POSITION
     elif not velocity_ok:
         reason = REASON_VELOCITY
-    record_first_bad(step, 4 * i + reason, first_step, first_key)
+    record_first_bad(step, 4 * i + reason, record)

@@ -76,10 +76,7 @@ def particle_system(
 def spring_system(
     x: wp.array(dtype=Any),
     v: wp.array(dtype=Any),
-    pairs: wp.array(dtype=wp.vec2i),
-    stiffness: wp.array(dtype=Any),
-    damping: wp.array(dtype=Any),
-    rest_length: wp.array(dtype=Any),
+    springs: Any,
     inv_mass: wp.array(dtype=Any),
     h: Any,
     particle_count: int,
@@ -88,8 +85,8 @@ def spring_system(
 ):
     """Per spring: its four blocks of A and its stiffness term h^2 dF/dx v0 of the right-hand side.
 
-    x: positions [m]; v: velocities [m/s] at the start of the step; pairs: (p1, p2);
-    stiffness ks [N/m]; damping kd [N s/m]; rest_length L0 [m]; inv_mass: 1/m [1/kg]
+    x: positions [m]; v: velocities [m/s] at the start of the step; springs: a kernels.blocks Springs
+    (pairs (p1, p2), stiffness ks [N/m], damping kd [N s/m], rest_length L0 [m]); inv_mass: 1/m [1/kg]
     (0 = pinned: that particle's blocks are eliminated); h: step [s]; particle_count N:
     the triplets of spring s start at N + 4 s. Writes triplets[N + 4 s + 0 .. 3] =
     B, B, -B, -B [kg] (the blocks touching a pinned particle are 0) and atomically adds
@@ -102,8 +99,8 @@ def spring_system(
     in Baraff and Witkin. A spring of zero length has no direction and contributes nothing.
     """
     s = wp.tid()
-    i = pairs[s][0]
-    j = pairs[s][1]
+    i = springs.pairs[s][0]
+    j = springs.pairs[s][1]
     zero = type(h)(0.0)
     one = type(h)(1.0)
     delta = x[j] - x[i]
@@ -114,9 +111,9 @@ def spring_system(
     if length > zero:
         d = delta / length
         ddt = wp.outer(d, d)
-        geometric = wp.max(zero, one - rest_length[s] / length)
-        S = stiffness[s] * (ddt + geometric * (eye - ddt))
-        block = h * damping[s] * ddt + h * h * S
+        geometric = wp.max(zero, one - springs.rest_length[s] / length)
+        S = springs.stiffness[s] * (ddt + geometric * (eye - ddt))
+        block = h * springs.damping[s] * ddt + h * h * S
         free_i = inv_mass[i] > zero
         free_j = inv_mass[j] > zero
         hhSdv = h * h * (S * (v[j] - v[i]))

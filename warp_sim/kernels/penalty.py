@@ -79,14 +79,8 @@ def penalty_damping(stiffness: Any, mass: Any, e: Any):
 def plane_penalty_forces(
     x: wp.array(dtype=Any),
     v: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    radius: wp.array(dtype=Any),
-    particle_restitution: wp.array(dtype=Any),
-    particle_friction: wp.array(dtype=Any),
-    plane_normal: wp.array(dtype=Any),
-    plane_offset: wp.array(dtype=Any),
-    plane_restitution: wp.array(dtype=Any),
-    plane_friction: wp.array(dtype=Any),
+    material: Any,
+    planes: Any,
     stiffness: Any,
     force: wp.array(dtype=Any),
 ):
@@ -103,29 +97,23 @@ def plane_penalty_forces(
     Args:
         x: particle positions (vec3) [m]
         v: particle velocities (vec3) [m/s]
-        inv_mass: inverse masses 1/m, 0 for pinned (skipped) [1/kg]
-        radius: particle radii [m]
-        particle_restitution: own restitution e per particle, < 0 for none, or an empty array [1]
-        particle_friction: own friction coefficient mu per particle, < 0 for none, or an empty array [1]
-        plane_normal: unit normals n_k, pointing to the allowed side (vec3) [1]
-        plane_offset: offsets of the planes n_k . x = offset_k [m]
-        plane_restitution: restitution e of each plane [1]
-        plane_friction: Coulomb friction coefficient mu of each plane [1]
+        material: inverse masses (0: pinned, skipped), radii, own restitution and friction (ParticleMaterial) [1/kg]
+        planes: unit normals n_k to the allowed side, offsets n_k . x = offset_k, restitution, friction (Planes) [m]
         stiffness: the penalty spring constant k [N/m]
         force: per-particle force accumulator, added to (vec3) [N]
     """
     i = wp.tid()
-    w = inv_mass[i]
+    w = material.inv_mass[i]
     zero = type(stiffness)(0.0)
     if w == zero:
         return
     mass = type(stiffness)(1.0) / w
     total = x[i] * zero
-    for k in range(plane_normal.shape[0]):
-        n = plane_normal[k]
-        depth = plane_offset[k] + radius[i] - wp.dot(n, x[i])
+    for k in range(planes.normal.shape[0]):
+        n = planes.normal[k]
+        depth = planes.offset[k] + material.radius[i] - wp.dot(n, x[i])
         if depth > zero:
-            e = contact_material(plane_restitution[k], particle_restitution, i)
+            e = contact_material(planes.restitution[k], material.restitution, i)
             c = penalty_damping(stiffness, mass, e)
             vn = wp.dot(v[i], n)
             fn = wp.max(stiffness * depth - c * vn, zero)
@@ -133,7 +121,7 @@ def plane_penalty_forces(
             speed = wp.length(vt)
             total = total + fn * n
             if speed > zero:
-                mu = contact_material(plane_friction[k], particle_friction, i)
+                mu = contact_material(planes.friction[k], material.friction, i)
                 total = total - vt * (wp.min(mu * fn, c * speed) / speed)
     wp.atomic_add(force, i, total)
 

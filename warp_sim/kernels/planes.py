@@ -91,14 +91,8 @@ def resolve_plane_impacts(
     v_start: wp.array(dtype=Any),
     x: wp.array(dtype=Any),
     v: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    radius: wp.array(dtype=Any),
-    particle_restitution: wp.array(dtype=Any),
-    particle_friction: wp.array(dtype=Any),
-    plane_normal: wp.array(dtype=Any),
-    plane_offset: wp.array(dtype=Any),
-    plane_restitution: wp.array(dtype=Any),
-    plane_friction: wp.array(dtype=Any),
+    material: Any,
+    planes: Any,
     h: Any,
     touched_out: wp.array(dtype=wp.int32),
 ):
@@ -121,23 +115,17 @@ def resolve_plane_impacts(
         v_start: velocities at the start of the step (vec3) [m/s]
         x: positions at the end of the step, corrected in place (vec3) [m]
         v: velocities at the end of the step, corrected in place (vec3) [m/s]
-        inv_mass: inverse masses 1/m, 0 for pinned (skipped) [1/kg]
-        radius: particle radii [m]
-        particle_restitution: own restitution e per particle, < 0 for none, or an empty array [1]
-        particle_friction: own friction coefficient mu per particle, < 0 for none, or an empty array [1]
-        plane_normal: unit normals n_k, pointing to the allowed side (vec3) [1]
-        plane_offset: offsets of the planes n_k . x = offset_k [m]
-        plane_restitution: restitution e of each plane [1]
-        plane_friction: Coulomb friction coefficient mu of each plane [1]
+        material: inverse masses (0: pinned, skipped), radii, own restitution and friction (ParticleMaterial) [1/kg]
+        planes: unit normals n_k to the allowed side, offsets n_k . x = offset_k, restitution, friction (Planes) [m]
         h: the step [s]
         touched_out: set to 1 for each particle that touched a plane in the step, or an empty array [1]
     """
     i = wp.tid()
-    if inv_mass[i] == type(h)(0.0):
+    if material.inv_mass[i] == type(h)(0.0):
         return
     zero = type(h)(0.0)
     half = type(h)(0.5)
-    r = radius[i]
+    r = material.radius[i]
     xs = x_start[i]
     vs = v_start[i]
     a = (v[i] - vs) / h
@@ -149,9 +137,9 @@ def resolve_plane_impacts(
         remaining = h - t
         best = type(h)(-1.0)
         best_k = int(-1)
-        for k in range(plane_normal.shape[0]):
-            n = plane_normal[k]
-            d0 = wp.dot(n, xs) - plane_offset[k] - r
+        for k in range(planes.normal.shape[0]):
+            n = planes.normal[k]
+            d0 = wp.dot(n, xs) - planes.offset[k] - r
             tc = first_contact_time(d0, wp.dot(n, vs), half * wp.dot(n, a), remaining)
             if tc >= zero and (best_k < 0 or tc < best):
                 best = tc
@@ -159,14 +147,14 @@ def resolve_plane_impacts(
         if best_k < 0:
             break
         touched = 1
-        n = plane_normal[best_k]
+        n = planes.normal[best_k]
         xs = xs + (vs + half * a * best) * best
-        xs = xs - n * (wp.dot(n, xs) - plane_offset[best_k] - r)
+        xs = xs - n * (wp.dot(n, xs) - planes.offset[best_k] - r)
         vs = vs + a * best
         t = t + best
         remaining = h - t
-        e = contact_material(plane_restitution[best_k], particle_restitution, i)
-        mu = contact_material(plane_friction[best_k], particle_friction, i)
+        e = contact_material(planes.restitution[best_k], material.restitution, i)
+        mu = contact_material(planes.friction[best_k], material.friction, i)
         vn = wp.dot(vs, n)
         an = wp.dot(a, n)
         resting_speed = type(h)(1e-6) * (wp.length(vs) + wp.abs(an) * h)
@@ -189,9 +177,9 @@ def resolve_plane_impacts(
         xe = xs + (vs + half * a * remaining) * remaining
         ve = vs + a * remaining
     # final projection: no particle ends a step inside any plane
-    for k in range(plane_normal.shape[0]):
-        n = plane_normal[k]
-        depth = plane_offset[k] + r - wp.dot(n, xe)
+    for k in range(planes.normal.shape[0]):
+        n = planes.normal[k]
+        depth = planes.offset[k] + r - wp.dot(n, xe)
         if depth > zero:
             touched = 1
             xe = xe + depth * n

@@ -12,7 +12,15 @@ from typing import Any
 
 import warp as wp
 
+from . import blocks
+
 __all__ = []
+
+#: generic arguments that are blocks (kernels.blocks), by argument name
+BLOCKS = {"bodies": "Bodies", "start": "Bodies", "end": "Bodies", "positions": "Bodies", "velocities": "Bodies",
+          "rates": "Bodies", "mass": "BodyMass", "held": "Wrench", "accumulated": "Wrench", "springs": "Springs",
+          "planes": "Planes", "material": "ParticleMaterial", "work": "BodyVelocities", "rows": "ContactRows",
+          "table": "ImpulseTable"}
 
 VECTORS = {"x_start", "P_start", "L_start", "x_end", "P_end", "L_end", "anchor1", "anchor2", "normal", "impulse_t",
            "collision_t", "v", "w", "v_collided", "w_collided", "x", "P", "L", "stored_t", "body_x", "body_P",
@@ -23,7 +31,8 @@ MATRICES = {"inv_inertia", "inv_inertia_world", "body_inv_inertia"}
 
 def declare_precisions(namespace: dict) -> None:
     """Register float32 and float64 overloads of every generic kernel in a module's namespace (``globals()``):
-    array arguments named in VECTORS, QUATERNIONS or MATRICES get that type, other generic ones the scalar."""
+    arguments named in BLOCKS get that block struct, array arguments named in VECTORS, QUATERNIONS or MATRICES
+    that type, other generic ones the scalar."""
     kinds = ((wp.float32, wp.vec3f, wp.quatf, wp.mat33f), (wp.float64, wp.vec3d, wp.quatd, wp.mat33d))
     for kernel in (value for value in list(namespace.values()) if isinstance(value, wp.Kernel)):
         generic = [a for a in kernel.adj.args
@@ -33,7 +42,9 @@ def declare_precisions(namespace: dict) -> None:
         for scalar, vec3, quat, mat33 in kinds:
             types = {}
             for arg in generic:
-                if arg.type is Any:
+                if arg.type is Any and arg.label in BLOCKS:
+                    types[arg.label] = getattr(blocks.of(scalar), BLOCKS[arg.label])
+                elif arg.type is Any:
                     types[arg.label] = scalar
                 else:
                     dtype = vec3 if arg.label in VECTORS else quat if arg.label in QUATERNIONS else \

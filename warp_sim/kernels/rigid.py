@@ -38,82 +38,51 @@ def orientation_rate(q: Any, omega: Any):
 
 
 @wp.kernel
-def body_position_rates(
-    q: wp.array(dtype=Any),
-    P: wp.array(dtype=Any),
-    L: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    inv_inertia_body: wp.array(dtype=Any),
-    dx: wp.array(dtype=Any),
-    dq: wp.array(dtype=Any),
-):
-    """dx/dt = v = P / M [m/s] and dq/dt = 1/2 (omega, 0) q [1/s], omega = R I_body^-1 R^T L.
+def body_position_rates(positions: Any, velocities: Any, mass: Any, rates: Any):
+    """dx/dt = v = P / M [m/s] and dq/dt = 1/2 (omega, 0) q [1/s], omega = R I_body^-1 R^T L, into rates.x, rates.q.
 
     Args:
-        q: orientations, unit quaternions (x, y, z, w) (quat) [1]
-        P: linear momenta (vec3) [kg m/s]
-        L: angular momenta, world frame (vec3) [kg m^2/s]
-        inv_mass: inverse masses 1/M [1/kg]
-        inv_inertia_body: inverse inertia tensors I_body^-1, body frame (mat33) [1/(kg m^2)]
-        dx: dx/dt = v, written (vec3) [m/s]
-        dq: dq/dt, written (quat) [1/s]
+        positions: the orientations q read from here (Bodies) [m]
+        velocities: the momenta P, L read from here (Bodies) [kg m/s]
+        mass: inverse masses and body-frame inverse inertia tensors (BodyMass) [1/kg]
+        rates: x and q written with dx/dt and dq/dt (Bodies) [m/s]
     """
     i = wp.tid()
-    dx[i] = P[i] * inv_mass[i]
-    dq[i] = orientation_rate(q[i], angular_velocity(q[i], inv_inertia_body[i], L[i]))
+    q = positions.q[i]
+    rates.x[i] = velocities.P[i] * mass.inv_mass[i]
+    rates.q[i] = orientation_rate(q, angular_velocity(q, mass.inv_inertia[i], velocities.L[i]))
 
 
 @wp.kernel
-def body_momentum_rates(
-    q: wp.array(dtype=Any),
-    P: wp.array(dtype=Any),
-    L: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    inv_inertia_body: wp.array(dtype=Any),
-    drag: wp.array(dtype=Any),
-    angular_drag: wp.array(dtype=Any),
-    gravity: Any,
-    wind: Any,
-    user_force: wp.array(dtype=Any),
-    user_torque: wp.array(dtype=Any),
-    force: wp.array(dtype=Any),
-    torque: wp.array(dtype=Any),
-    dP: wp.array(dtype=Any),
-    dL: wp.array(dtype=Any),
-):
-    """dP/dt = F and dL/dt = tau, the total force [N] and torque about the centre of mass [N m].
+def body_momentum_rates(bodies: Any, mass: Any, drag: wp.array(dtype=Any), angular_drag: wp.array(dtype=Any),
+                        gravity: Any, wind: Any, held: Any, accumulated: Any, rates: Any):
+    """dP/dt = F and dL/dt = tau, the total force [N] and torque about the centre of mass [N m], into rates.P, rates.L.
 
-    F = M g + drag (wind - v) + user_force + force; tau = -angular_drag omega +
-    user_torque + torque, with v = P / M and omega = R I_body^-1 R^T L.
+    F = M g + drag (wind - v) + held force + accumulated force; tau = -angular_drag omega + held
+    torque + accumulated torque, with v = P / M and omega = R I_body^-1 R^T L.
 
     Args:
-        q: orientations, unit quaternions (x, y, z, w) (quat) [1]
-        P: linear momenta (vec3) [kg m/s]
-        L: angular momenta, world frame (vec3) [kg m^2/s]
-        inv_mass: inverse masses 1/M, > 0 [1/kg]
-        inv_inertia_body: inverse inertia tensors I_body^-1, body frame (mat33) [1/(kg m^2)]
+        bodies: orientations and momenta (Bodies) [kg m/s]
+        mass: inverse masses (> 0) and body-frame inverse inertia tensors (BodyMass) [1/kg]
         drag: linear drag coefficients, per body [N s/m]
         angular_drag: angular drag coefficients, per body [N m s/rad]
         gravity: the gravitational acceleration g (vec3) [m/s^2]
         wind: the air's velocity (vec3) [m/s]
-        user_force: forces held by the user between steps, at the centre of mass (vec3) [N]
-        user_torque: torques held by the user between steps (vec3) [N m]
-        force: the force terms' force accumulators, or an empty array when none acts on bodies (vec3) [N]
-        torque: the force terms' torque accumulators, or an empty array with force (vec3) [N m]
-        dP: dP/dt = F, written (vec3) [N]
-        dL: dL/dt = tau, written (vec3) [N m]
+        held: forces and torques the user holds between steps, at the centres of mass (Wrench) [N]
+        accumulated: the force terms' accumulators, or empty arrays when none acts on bodies (Wrench) [N]
+        rates: P and L written with dP/dt = F and dL/dt = tau (Bodies) [N]
     """
     i = wp.tid()
-    w = inv_mass[i]
-    v = P[i] * w
-    omega = angular_velocity(q[i], inv_inertia_body[i], L[i])
-    F = gravity / w + drag[i] * (wind - v) + user_force[i]
-    tau = user_torque[i] - angular_drag[i] * omega
-    if force.shape[0] > 0:
-        F = F + force[i]
-        tau = tau + torque[i]
-    dP[i] = F
-    dL[i] = tau
+    w = mass.inv_mass[i]
+    v = bodies.P[i] * w
+    omega = angular_velocity(bodies.q[i], mass.inv_inertia[i], bodies.L[i])
+    F = gravity / w + drag[i] * (wind - v) + held.force[i]
+    tau = held.torque[i] - angular_drag[i] * omega
+    if accumulated.force.shape[0] > 0:
+        F = F + accumulated.force[i]
+        tau = tau + accumulated.torque[i]
+    rates.P[i] = F
+    rates.L[i] = tau
 
 
 @wp.kernel
@@ -128,29 +97,18 @@ def normalize_orientations(q: wp.array(dtype=Any)):
 
 
 @wp.kernel
-def body_velocities(
-    q: wp.array(dtype=Any),
-    P: wp.array(dtype=Any),
-    L: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    inv_inertia_body: wp.array(dtype=Any),
-    v: wp.array(dtype=Any),
-    omega: wp.array(dtype=Any),
-):
+def body_velocities(bodies: Any, mass: Any, v: wp.array(dtype=Any), omega: wp.array(dtype=Any)):
     """The auxiliaries v = P / M [m/s] and omega = I(t)^-1 L [rad/s], world frame.
 
     Args:
-        q: orientations, unit quaternions (x, y, z, w) (quat) [1]
-        P: linear momenta (vec3) [kg m/s]
-        L: angular momenta, world frame (vec3) [kg m^2/s]
-        inv_mass: inverse masses 1/M [1/kg]
-        inv_inertia_body: inverse inertia tensors I_body^-1, body frame (mat33) [1/(kg m^2)]
+        bodies: orientations and momenta (Bodies) [kg m/s]
+        mass: inverse masses and body-frame inverse inertia tensors (BodyMass) [1/kg]
         v: linear velocities of the centres of mass, written (vec3) [m/s]
         omega: angular velocities, world frame, written (vec3) [rad/s]
     """
     i = wp.tid()
-    v[i] = P[i] * inv_mass[i]
-    omega[i] = angular_velocity(q[i], inv_inertia_body[i], L[i])
+    v[i] = bodies.P[i] * mass.inv_mass[i]
+    omega[i] = angular_velocity(bodies.q[i], mass.inv_inertia[i], bodies.L[i])
 
 
 @wp.kernel
@@ -166,23 +124,14 @@ def rotation_matrices(q: wp.array(dtype=Any), R: wp.array(dtype=Any)):
 
 
 @wp.kernel
-def apply_impulse(
-    body: int,
-    impulse: Any,
-    point: Any,
-    x: wp.array(dtype=Any),
-    P: wp.array(dtype=Any),
-    L: wp.array(dtype=Any),
-):
+def apply_impulse(body: int, impulse: Any, point: Any, bodies: Any):
     """An impulse J [N s] at world point p [m] on one body: P += J, L += (p - x) x J. Launch with dim 1.
 
     Args:
         body: the index of the body [1]
         impulse: the impulse J, world frame (vec3) [N s]
         point: the world point p where it acts (vec3) [m]
-        x: centres of mass (vec3) [m]
-        P: linear momenta, updated in place (vec3) [kg m/s]
-        L: angular momenta, updated in place (vec3) [kg m^2/s]
+        bodies: centres of mass read, momenta P and L updated in place (Bodies) [kg m/s]
     """
-    P[body] = P[body] + impulse
-    L[body] = L[body] + wp.cross(point - x[body], impulse)
+    bodies.P[body] = bodies.P[body] + impulse
+    bodies.L[body] = bodies.L[body] + wp.cross(point - bodies.x[body], impulse)

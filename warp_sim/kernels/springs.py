@@ -15,10 +15,7 @@ wp.set_module_options({"enable_backward": False})  # forward simulation only: no
 def spring_forces(
     x: wp.array(dtype=Any),
     v: wp.array(dtype=Any),
-    pairs: wp.array(dtype=wp.vec2i),
-    stiffness: wp.array(dtype=Any),
-    damping: wp.array(dtype=Any),
-    rest_length: wp.array(dtype=Any),
+    springs: Any,
     force: wp.array(dtype=Any),
 ):
     """Accumulate f = (-ks (L - L0) - kd (v2 - v1).d) d on p2 and -f on p1.
@@ -32,20 +29,18 @@ def spring_forces(
     Args:
         x: particle positions (vec3) [m]
         v: particle velocities (vec3) [m/s]
-        pairs: the particle indices (p1, p2) of each spring [1]
-        stiffness: ks, per spring [N/m]
-        damping: kd, per spring [N s/m]
-        rest_length: L0, per spring [m]
+        springs: per spring its particles (p1, p2), ks, kd and L0 (Springs) [N/m]
         force: per-particle force accumulator, added to (vec3) [N]
     """
     s = wp.tid()
-    i = pairs[s][0]
-    j = pairs[s][1]
+    i = springs.pairs[s][0]
+    j = springs.pairs[s][1]
     delta = x[j] - x[i]
     length = wp.length(delta)
     if length > type(length)(0.0):
         d = delta / length
-        magnitude = -stiffness[s] * (length - rest_length[s]) - damping[s] * wp.dot(v[j] - v[i], d)
+        magnitude = -springs.stiffness[s] * (length - springs.rest_length[s]) - springs.damping[s] * wp.dot(
+            v[j] - v[i], d)
         f = magnitude * d
         wp.atomic_add(force, j, f)
         wp.atomic_sub(force, i, f)

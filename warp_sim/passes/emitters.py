@@ -12,6 +12,7 @@ import numpy as np
 import warp as wp
 
 from ..core.protocols import Pass
+from ..kernels import blocks
 from ..kernels import emitters as kernels
 from ..scene.emitters import EMITTER_SHAPES, ID_STRIDE, Emitter
 from ..util import checks
@@ -97,6 +98,9 @@ class _Pool:
         self.emitted = 0            # sequence numbers handed out so far (host)
         self.stream = 0             # continuous-stream births so far (host)
         self.params = self._params(scene)
+        self.slots = blocks.fill(kernels.Pool, alive=self.alive, ids=self.ids, birth=self.birth, age=self.age,
+                                 lifetime=self.lifetime, color=self.color, opacity=self.opacity,
+                                 free_slots=self.free_slots, free_count=self.free_count)
         self._mesh_arrays(device)
         self._ramp_arrays(device)
         self._kill_arrays(model, device)
@@ -126,36 +130,36 @@ class _Pool:
         areas = 0.5 * np.linalg.norm(np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]),
                                      axis=1)
         cdf = np.cumsum(areas) / max(areas.sum(), 1e-300)
-        self.mesh = [wp.array(cdf, dtype=wp.float32, device=device)] + [
-            wp.array(triangles[:, corner], dtype=wp.vec3f, device=device) for corner in range(3)]
+        a, b, c = (wp.array(triangles[:, corner], dtype=wp.vec3f, device=device) for corner in range(3))
+        self.mesh = blocks.fill(kernels.MeshSurface, cdf=wp.array(cdf, dtype=wp.float32, device=device), a=a, b=b, c=c)
 
     def _ramp_arrays(self, device):
-        self.ramps = []
-        for ramp in (self.e.color[2], self.e.opacity[2], self.e.size_ramp):
+        arrays = {}
+        for name, ramp in (("color", self.e.color[2]), ("opacity", self.e.opacity[2]), ("size", self.e.size_ramp)):
             keys, values = (ramp.keys, np.array(ramp.values)) if ramp is not None else ((0.0, 1.0), np.zeros((2, 1)))
             padded = np.zeros((len(keys), 4))
             padded[:, :values.shape[1]] = values
-            self.ramps += [wp.array(keys, dtype=wp.float32, device=device),
-                           wp.array(padded, dtype=wp.vec4f, device=device)]
+            arrays[f"{name}_keys"] = wp.array(keys, dtype=wp.float32, device=device)
+            arrays[f"{name}_values"] = wp.array(padded, dtype=wp.vec4f, device=device)
+        self.ramps = blocks.fill(kernels.Ramps, **arrays)
 
     def _kill_arrays(self, model, device):
         planes = self.e.kill_planes
-        self.kill_normal = wp.array([n for n, _ in planes], dtype=wp.vec3f, device=device) if planes else \
+        normal = wp.array([n for n, _ in planes], dtype=wp.vec3f, device=device) if planes else \
             wp.empty(0, dtype=wp.vec3f, device=device)
-        self.kill_offset = wp.array([o for _, o in planes], dtype=wp.float32, device=device)
+        self.kill = blocks.fill(kernels.KillPlanes, normal=normal,
+                                offset=wp.array([o for _, o in planes], dtype=wp.float32, device=device))
         contact = self.e.kill_on_contact and model.plane_count > 0
-        self.contact_normal = model.plane_normal if contact else model.empty(model.vec3)
-        self.contact_offset = model.plane_offset if contact else model.empty()
+        self.contact_planes = model.planes if contact else blocks.fill(
+            model.blocks.Planes, normal=model.empty(model.vec3), offset=model.empty(), restitution=model.empty(),
+            friction=model.empty())
         self.touched = model.empty(wp.int32)
 
     def age_and_kill(self, state, now: float) -> None:
         m = self.model
         m.launch(self.k.age_and_kill, self.e.capacity,
-                 [self.params, self.e.start_slot, self.kill_normal, self.kill_offset, wp.float64(now),
-                  self.contact_normal, self.contact_offset, self.touched, *self.ramps, state.particle_x,
-                  state.particle_v, m.particle_inv_mass, m.particle_radius, self.alive, self.birth, self.age,
-                  self.lifetime, self.color, self.opacity, self.free_slots,
-                  self.free_count])
+                 [self.params, self.e.start_slot, wp.float64(now), self.kill, self.contact_planes, self.touched,
+                  self.slots, self.ramps, state.particle_x, state.particle_v, m.particle_material])
 
     def births(self, state, t0: float, t1: float, include_start: bool) -> None:
         """Emit the births in (t0, t1] (or [t0, t1] with include_start), aged to t1."""
@@ -175,11 +179,8 @@ class _Pool:
         m = self.model
         m.launch(self.k.emit, count,
                  [self.params, self.e.start_slot, self.emitted, wp.int64(self.e.index * ID_STRIDE),
-                  wp.float64(first_age), wp.float64(age_step), self.free_slots, self.free_count, *self.mesh,
-                  *self.ramps, state.particle_x, state.particle_v, m.particle_inv_mass, m.particle_radius, self.alive,
-                  self.ids,
-                  wp.float64(now), self.birth, self.age, self.lifetime, self.color,
-                  self.opacity])
+                  wp.float64(first_age), wp.float64(age_step), wp.float64(now), self.slots, self.mesh, self.ramps,
+                  state.particle_x, state.particle_v, m.particle_material])
         m.launch(self.k.commit_births, 1, [count, self.free_count, self.born, self.skipped])
         self.emitted += count
 

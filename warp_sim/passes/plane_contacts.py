@@ -28,6 +28,5 @@ class PlaneImpacts(Pass):
         """Correct ``end`` in place for every plane crossed between ``start`` and ``end`` (h seconds)."""
         m = self.model
         m.launch(plane_kernels.resolve_plane_impacts, m.particle_count,
-                 [start.particle_x, start.particle_v, end.particle_x, end.particle_v, m.particle_inv_mass,
-                  m.particle_radius, m.particle_restitution, m.particle_friction, m.plane_normal, m.plane_offset,
-                  m.plane_restitution, m.plane_friction, m.scalar(h), self.touched])
+                 [start.particle_x, start.particle_v, end.particle_x, end.particle_v, m.particle_material, m.planes,
+                  m.scalar(h), self.touched])

@@ -180,8 +180,7 @@ class ImplicitEuler(Partitioned):
                      int(self.warm_start), self.diagonal_triplets, self.rhs, self.dv])
         if m.spring_count:
             self.launch(implicit_kernels.spring_system, m.spring_count,
-                        [state_in.particle_x, state_in.particle_v, m.spring_pairs, m.spring_stiffness,
-                         m.spring_damping, m.spring_rest_length, m.particle_inv_mass, scalar(h), n,
+                        [state_in.particle_x, state_in.particle_v, m.springs, m.particle_inv_mass, scalar(h), n,
                          self.triplets, self.rhs])
         wp_sparse.bsr_set_from_mapped_values(self.A, self.mapping, self.triplets, reduction="gather")
         if self.preconditioner != "none":
