@@ -58,8 +58,7 @@ def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: 
         model.plane_count > 0 or colliders > 0 or model.body_count > 1 or model.particle_count > 0)
     particles_meet_shapes = model.particle_count > 0 and ((model.body_count > 0 and collisions) or colliders > 0)
     geometry = ContactGeometry(model, scene) if bodies_collide or particles_meet_shapes else None
-    detection = Detection(model, geometry, scene.planes, contact_margin if impulse else 0.0) \
-        if bodies_collide else None
+    detection = Detection(model, geometry, contact_margin if impulse else 0.0) if bodies_collide else None
 
     force_terms = _present([
         Springs(model) if model.spring_count else None,

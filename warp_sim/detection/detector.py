@@ -9,7 +9,6 @@ distance, and box-box contact polygons by separating axes.
 """
 from __future__ import annotations
 
-import numpy as np
 import warp as wp
 
 from ..core.model import Model
@@ -20,9 +19,14 @@ from .geometry import ContactGeometry
 
 
 class Detection:
-    """Broad and narrow phase over a pose pair (start, end) of the bodies: ``detect`` fills ``contacts``."""
+    """Broad and narrow phase over a pose pair (start, end) of the bodies: ``detect`` fills ``contacts``.
 
-    def __init__(self, model: Model, geometry: ContactGeometry, planes: list, margin: float):
+    geometry: the shapes (ContactGeometry); margin: the gap below which shapes count as touching [m]
+    pairs, contacts: growable buffers of candidate pairs and contacts; grid: the bodies' hash grid
+    cell: its cell size [m]; pair_count, count: pairs and contacts found by the last detect
+    """
+
+    def __init__(self, model: Model, geometry: ContactGeometry, margin: float):
         self.model = model
         self.geometry = geometry
         self.margin = float(margin)
@@ -32,12 +36,6 @@ class Detection:
         dim = int(min(128, max(8, 2.0 * model.body_count ** (1.0 / 3.0))))   # cells hash into dim^3 buckets
         self.grid = wp.HashGrid(dim, dim, dim, device=device) if model.body_count else None
         self.cell = max(2.0 * geometry.body_bound + self.margin, 1e-3)
-        self.planes_normal = wp.array(np.array([p.normal for p in planes]).reshape(-1, 3),
-                                      dtype=wp.vec3f, device=device)
-        self.planes_offset = wp.array([p.offset for p in planes], dtype=wp.float32, device=device)
-        self.planes_restitution = wp.array([p.restitution for p in planes], dtype=wp.float32,
-                                           device=device)
-        self.planes_friction = wp.array([p.friction for p in planes], dtype=wp.float32, device=device)
         self.pair_count = 0
         self.count = 0
 
@@ -47,20 +45,18 @@ class Detection:
         geoms = self.geometry.geoms
         B = m.body_count
         self.geometry.max_reach.zero_()
-        m.launch(detection_kernels.gather_poses, B, [start.body_x, start.body_q, end.body_x, end.body_q, self.margin,
-                                                   geoms, self.geometry.max_reach])
+        m.launch(detection_kernels.gather_poses, B, [start.bodies, end.bodies, self.margin, geoms,
+                                                   self.geometry.max_reach])
         self.grid.build(geoms.x[:B], self.cell)
         statics = self.geometry.static_count
 
         def pairs(buffer):
-            m.launch(detection_kernels.find_pairs, B, [geoms, self.grid.id, statics, self.planes_normal,
-                                                     self.planes_offset, self.geometry.max_reach, buffer])
+            m.launch(detection_kernels.find_pairs, B, [geoms, self.grid.id, statics, self.geometry.max_reach, buffer])
 
         self.pair_count = self.pairs.fill(pairs)
 
         def contacts(buffer):
-            m.launch(detection_kernels.narrow_phase, self.pair_count, [self.pairs.buffer, geoms, self.planes_normal,
-                                                                     self.planes_offset, self.margin, buffer])
+            m.launch(detection_kernels.narrow_phase, self.pair_count, [self.pairs.buffer, geoms, self.margin, buffer])
 
         self.count = self.contacts.fill(contacts) if self.pair_count else 0
         return self.count

@@ -144,6 +144,11 @@ class ContactGeometry:
         g.x = array(xs, wp.vec3f, (-1, 3))
         g.q = array(qs, wp.quatf, (-1, 4))
         g.reach = array(bounds, wp.float32)
+        planes = scene.planes
+        g.plane_normal = wp.array(np.array([p.normal for p in planes]).reshape(-1, 3), dtype=wp.vec3f, device=device)
+        g.plane_offset = array([p.offset for p in planes], wp.float32)
+        g.plane_restitution = array([p.restitution for p in planes], wp.float32)
+        g.plane_friction = array([p.friction for p in planes], wp.float32)
         g.body_count = self.body_count
         self.geoms = g
         self.max_reach = wp.zeros(1, dtype=wp.float32, device=device)

@@ -42,7 +42,5 @@ class BodyPenalty(ForceTerm):
         count = self.detection.detect(state, state)
         if count:
             d = self.detection
-            m.launch(penalty_kernels.body_penalty_forces, count, [
-                d.contacts.buffer, d.geometry.geoms, d.planes_restitution, d.planes_friction, state.body_x,
-                state.body_q, state.body_P, state.body_L, m.body_inv_mass, m.body_inv_inertia, self.stiffness,
-                forces.body_f, forces.body_t])
+            m.launch(penalty_kernels.body_penalty_forces, count, [d.contacts.buffer, d.geometry.geoms, state.bodies,
+                                                                   m.body_mass, self.stiffness, forces.body_wrench])

@@ -34,6 +34,12 @@ def state_point_velocity(q: Any, P: Any, L: Any, inv_mass: Any, inv_inertia: Any
 
 
 @wp.func
+def body_point_velocity(bodies: Any, mass: Any, i: int, r: Any):
+    """Velocity [m/s] of body i's point at world offset r [m] from its centre of mass (Bodies, BodyMass blocks)."""
+    return state_point_velocity(bodies.q[i], bodies.P[i], bodies.L[i], mass.inv_mass[i], mass.inv_inertia[i], r)
+
+
+@wp.func
 def lever(q: Any, anchor: Any, n: Any, rounding: Any):
     """World offset [m] from a centre of mass to a contact: the anchor turned by q, then ``rounding`` along n."""
     return wp.quat_rotate(wp.normalize(q), anchor) + n * rounding
@@ -46,15 +52,14 @@ def response_mass(inv_mass: Any, inv_inertia_world: Any, r: Any, n: Any):
 
 
 @wp.func
-def pair_material(geoms: Geoms, plane_restitution: wp.array(dtype=wp.float32),
-                  plane_friction: wp.array(dtype=wp.float32), i: int, j: int):
+def pair_material(geoms: Geoms, i: int, j: int):
     """A contact's restitution and friction: the means of body i's values and the other side's (a body, a
     static collider, or plane -1 - j)."""
     e = geoms.restitution[i]
     mu = geoms.friction[i]
     if j < 0:
-        e = 0.5 * (e + plane_restitution[-1 - j])
-        mu = 0.5 * (mu + plane_friction[-1 - j])
+        e = 0.5 * (e + geoms.plane_restitution[-1 - j])
+        mu = 0.5 * (mu + geoms.plane_friction[-1 - j])
     else:
         e = 0.5 * (e + geoms.restitution[j])
         mu = 0.5 * (mu + geoms.friction[j])
@@ -62,38 +67,8 @@ def pair_material(geoms: Geoms, plane_restitution: wp.array(dtype=wp.float32),
 
 
 @wp.kernel
-def prepare_contacts(
-    contacts: ContactBuffer,
-    geoms: Geoms,
-    plane_restitution: wp.array(dtype=wp.float32),
-    plane_friction: wp.array(dtype=wp.float32),
-    x_start: wp.array(dtype=Any),
-    q_start: wp.array(dtype=Any),
-    P_start: wp.array(dtype=Any),
-    L_start: wp.array(dtype=Any),
-    x_end: wp.array(dtype=Any),
-    q_end: wp.array(dtype=Any),
-    P_end: wp.array(dtype=Any),
-    L_end: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    inv_inertia: wp.array(dtype=Any),
-    h: Any,
-    bounce_speed: Any,
-    slop: Any,
-    anchor1: wp.array(dtype=Any),
-    anchor2: wp.array(dtype=Any),
-    rounding1: wp.array(dtype=Any),
-    rounding2: wp.array(dtype=Any),
-    normal: wp.array(dtype=Any),
-    impact_time: wp.array(dtype=Any),
-    after_impact: wp.array(dtype=Any),
-    min_normal_speed: wp.array(dtype=Any),
-    restitution: wp.array(dtype=Any),
-    friction: wp.array(dtype=Any),
-    impulse_n: wp.array(dtype=Any),
-    impulse_t: wp.array(dtype=Any),
-    body_impact: wp.array(dtype=Any),
-):
+def prepare_contacts(contacts: ContactBuffer, geoms: Geoms, start: Any, end: Any, mass: Any, h: Any,
+                     bounce_speed: Any, slop: Any, rows: Any, work: Any):
     """Per contact: anchors in the body frames (rounding1 = -radius1 and rounding2 = radius2 along n from
     them to the surfaces), the time of impact within the step, materials.
 
@@ -101,38 +76,38 @@ def prepare_contacts(
     velocity at the start and an the normal relative acceleration the solver produced; the
     earliest root is the time of impact (or the linear crossing of the start and end gaps).
     after_impact: the normal velocity the forces add after the impact, a_n (h - t) [m/s].
-    body_impact: per body, the earliest impact (fraction of the step) among its bouncing contacts.
+    start, end: the bodies at the start and end of the step (Bodies); mass: BodyMass; rows: the contacts'
+    ContactRows, written; work.impact: per body, the earliest impact (fraction of the step) among its
+    bouncing contacts.
     """
     c = wp.tid()
     i = contacts.ids[c][0]
     j = contacts.ids[c][1]
     zero = type(h)(0.0)
     half = type(h)(0.5)
-    n = type(P_start[0])(contacts.normal[c])
+    n = type(start.P[0])(contacts.normal[c])
     p1 = type(n)(contacts.point1[c])
     p2 = type(n)(contacts.point2[c])
     dynamic = is_body(j, geoms.body_count)
     round1 = -type(h)(contacts.radius1[c])
     round2 = type(h)(contacts.radius2[c])
-    a1 = wp.quat_rotate_inv(wp.normalize(q_start[i]), p1 - x_start[i])
+    a1 = wp.quat_rotate_inv(wp.normalize(start.q[i]), p1 - start.x[i])
     a2 = p2
-    vn_start = wp.dot(n, state_point_velocity(q_start[i], P_start[i], L_start[i], inv_mass[i], inv_inertia[i],
-                                              lever(q_start[i], a1, n, round1)))
+    vn_start = wp.dot(n, body_point_velocity(start, mass, i, lever(start.q[i], a1, n, round1)))
     end2 = p2 + n * round2
     if dynamic:
-        a2 = wp.quat_rotate_inv(wp.normalize(q_start[j]), p2 - x_start[j])
-        vn_start -= wp.dot(n, state_point_velocity(q_start[j], P_start[j], L_start[j], inv_mass[j], inv_inertia[j],
-                                                   lever(q_start[j], a2, n, round2)))
-        end2 = x_end[j] + lever(q_end[j], a2, n, round2)
-    gap_end = wp.dot(n, x_end[i] + lever(q_end[i], a1, n, round1) - end2)
-    e32, mu32 = pair_material(geoms, plane_restitution, plane_friction, i, j)
+        a2 = wp.quat_rotate_inv(wp.normalize(start.q[j]), p2 - start.x[j])
+        vn_start -= wp.dot(n, body_point_velocity(start, mass, j, lever(start.q[j], a2, n, round2)))
+        end2 = end.x[j] + lever(end.q[j], a2, n, round2)
+    gap_end = wp.dot(n, end.x[i] + lever(end.q[i], a1, n, round1) - end2)
+    e32, mu32 = pair_material(geoms, i, j)
     e = type(h)(e32)
     mu = type(h)(mu32)
     gap = wp.dot(n, p1 - p2) + round1 - round2
     # the normal acceleration from forces: the change of the centres' velocities (rotation alone is kinematic)
-    dv = (P_end[i] - P_start[i]) * inv_mass[i]
+    dv = (end.P[i] - start.P[i]) * mass.inv_mass[i]
     if dynamic:
-        dv -= (P_end[j] - P_start[j]) * inv_mass[j]
+        dv -= (end.P[j] - start.P[j]) * mass.inv_mass[j]
     an = wp.dot(n, dv) / h
     t = first_contact_time(gap, vn_start, half * an, h)
     if t < zero and gap_end < zero:
@@ -141,82 +116,68 @@ def prepare_contacts(
             t = h * wp.clamp(gap / (gap - gap_end), zero, type(h)(1.0))
     if t < zero and gap <= slop:   # touching: impacts passed on by neighbours happen now
         t = zero
-    anchor1[c] = a1
-    anchor2[c] = a2
-    rounding1[c] = round1
-    rounding2[c] = round2
-    normal[c] = n
-    impact_time[c] = t
+    rows.anchor1[c] = a1
+    rows.anchor2[c] = a2
+    rows.rounding1[c] = round1
+    rows.rounding2[c] = round2
+    rows.normal[c] = n
+    rows.impact_time[c] = t
     # resting contact: no approach at the end of the step where it closes or touches; elsewhere (speculative)
     # the approach may close the gap but not more
     closing = zero
     if t < zero and gap > slop:
         closing = gap / h
-    min_normal_speed[c] = -closing
-    after_impact[c] = an * (h - t)
-    restitution[c] = e
-    friction[c] = mu
-    impulse_n[c] = zero
-    impulse_t[c] = type(n)()
+    rows.min_normal_speed[c] = -closing
+    rows.after_impact[c] = an * (h - t)
+    rows.restitution[c] = e
+    rows.friction[c] = mu
+    rows.impulse_n[c] = zero
+    rows.impulse_t[c] = type(n)()
     if t >= zero and vn_start + an * t < -bounce_speed:
-        wp.atomic_min(body_impact, i, t / h)
+        wp.atomic_min(work.impact, i, t / h)
         if dynamic:
-            wp.atomic_min(body_impact, j, t / h)
+            wp.atomic_min(work.impact, j, t / h)
 
 
 @wp.kernel
-def load_velocities(
-    q: wp.array(dtype=Any),
-    P: wp.array(dtype=Any),
-    L: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    inv_inertia: wp.array(dtype=Any),
-    v: wp.array(dtype=Any),
-    w: wp.array(dtype=Any),
-    inv_inertia_world: wp.array(dtype=Any),
-    body_impact: wp.array(dtype=Any),
-):
+def load_velocities(bodies: Any, mass: Any, work: Any):
     """Working velocities v = P/M, omega = I^-1 L and I(t)^-1 = R I_body^-1 R^T at the end of the step."""
     i = wp.tid()
-    R = wp.quat_to_matrix(wp.normalize(q[i]))
-    inv_world = R * inv_inertia[i] * wp.transpose(R)
-    inv_inertia_world[i] = inv_world
-    v[i] = P[i] * inv_mass[i]
-    w[i] = inv_world * L[i]
-    body_impact[i] = type(inv_mass[i])(2.0)
+    R = wp.quat_to_matrix(wp.normalize(bodies.q[i]))
+    inv_world = R * mass.inv_inertia[i] * wp.transpose(R)
+    work.inv_inertia_world[i] = inv_world
+    work.v[i] = bodies.P[i] * mass.inv_mass[i]
+    work.w[i] = inv_world * bodies.L[i]
+    work.impact[i] = type(mass.inv_mass[i])(2.0)
 
 
 @wp.func
-def relative_velocity(ids: wp.vec2i, body_count: int, v: wp.array(dtype=Any), w: wp.array(dtype=Any),
-                      r1: Any, r2: Any):
+def relative_velocity(ids: wp.vec2i, body_count: int, work: Any, r1: Any, r2: Any):
     i = ids[0]
     j = ids[1]
-    rel = point_velocity(v[i], w[i], r1)
+    rel = point_velocity(work.v[i], work.w[i], r1)
     if is_body(j, body_count):
-        rel -= point_velocity(v[j], w[j], r2)
+        rel -= point_velocity(work.v[j], work.w[j], r2)
     return rel
 
 
 @wp.func
-def apply_pair_impulse(ids: wp.vec2i, body_count: int, v: wp.array(dtype=Any), w: wp.array(dtype=Any),
-                       inv_mass: wp.array(dtype=Any), inv_inertia_world: wp.array(dtype=Any),
-                       r1: Any, r2: Any, J: Any):
+def apply_pair_impulse(ids: wp.vec2i, body_count: int, work: Any, mass: Any, r1: Any, r2: Any, J: Any):
     """Impulse J [N s] on the first body at r1, -J on the second at r2."""
     i = ids[0]
     j = ids[1]
-    v[i] = v[i] + J * inv_mass[i]
-    w[i] = w[i] + inv_inertia_world[i] * wp.cross(r1, J)
+    work.v[i] = work.v[i] + J * mass.inv_mass[i]
+    work.w[i] = work.w[i] + work.inv_inertia_world[i] * wp.cross(r1, J)
     if is_body(j, body_count):
-        v[j] = v[j] - J * inv_mass[j]
-        w[j] = w[j] - inv_inertia_world[j] * wp.cross(r2, J)
+        work.v[j] = work.v[j] - J * mass.inv_mass[j]
+        work.w[j] = work.w[j] - work.inv_inertia_world[j] * wp.cross(r2, J)
 
 
 @wp.func
-def pair_mass(ids: wp.vec2i, body_count: int, inv_mass: wp.array(dtype=Any),
-              inv_inertia_world: wp.array(dtype=Any), r1: Any, r2: Any, n: Any):
-    k = response_mass(inv_mass[ids[0]], inv_inertia_world[ids[0]], r1, n)
+def pair_mass(ids: wp.vec2i, body_count: int, work: Any, mass: Any, r1: Any, r2: Any, n: Any):
+    k = response_mass(mass.inv_mass[ids[0]], work.inv_inertia_world[ids[0]], r1, n)
     if is_body(ids[1], body_count):
-        k += response_mass(inv_mass[ids[1]], inv_inertia_world[ids[1]], r2, n)
+        k += response_mass(mass.inv_mass[ids[1]], work.inv_inertia_world[ids[1]], r2, n)
     return k
 
 
@@ -231,90 +192,75 @@ def levers(ids: wp.vec2i, body_count: int, q: wp.array(dtype=Any), a1: Any, a2: 
 
 
 @wp.func
-def friction_impulse(ids: wp.vec2i, body_count: int, inv_mass: wp.array(dtype=Any),
-                     inv_inertia_world: wp.array(dtype=Any), r1: Any, r2: Any, n: Any, rel: Any):
+def contact_levers(pair: wp.vec2i, body_count: int, q: wp.array(dtype=Any), rows: Any, c: int):
+    """levers() of contact c of the ContactRows at the orientations q."""
+    return levers(pair, body_count, q, rows.anchor1[c], rows.anchor2[c], rows.normal[c], rows.rounding1[c],
+                  rows.rounding2[c])
+
+
+@wp.func
+def friction_impulse(ids: wp.vec2i, body_count: int, work: Any, mass: Any, r1: Any, r2: Any, n: Any, rel: Any):
     """The impulse that would stop the tangential sliding rel - (rel . n) n, and its length."""
     slide = rel - n * wp.dot(rel, n)
     speed = wp.length(slide)
     J = slide * type(speed)(0.0)
     if speed > type(speed)(1.0e-12):
         direction = slide / speed
-        J = direction * (-speed / pair_mass(ids, body_count, inv_mass, inv_inertia_world, r1, r2, direction))
+        J = direction * (-speed / pair_mass(ids, body_count, work, mass, r1, r2, direction))
     return J
 
 
 @wp.func
-def impact_levers(ids: wp.vec2i, body_count: int, x_start: wp.array(dtype=Any), q_start: wp.array(dtype=Any),
-                  x_end: wp.array(dtype=Any), q_end: wp.array(dtype=Any), fraction: Any, a1: Any, a2: Any, n: Any,
-                  round1: Any, round2: Any):
+def impact_levers(ids: wp.vec2i, body_count: int, start: Any, end: Any, fraction: Any, a1: Any, a2: Any,
+                  n: Any, round1: Any, round2: Any):
     """Lever arms [m] from each centre to one point, midway between the two surface points, with the poses
     interpolated to the time of impact: equal and opposite impulses there keep the pair's angular momentum."""
     i = ids[0]
     j = ids[1]
-    x1 = x_start[i] + (x_end[i] - x_start[i]) * fraction
-    p1 = x1 + lever(q_start[i] + (q_end[i] - q_start[i]) * fraction, a1, n, round1)
+    x1 = start.x[i] + (end.x[i] - start.x[i]) * fraction
+    p1 = x1 + lever(start.q[i] + (end.q[i] - start.q[i]) * fraction, a1, n, round1)
     p2 = a2 + n * round2
     x2 = a2
     if is_body(j, body_count):
-        x2 = x_start[j] + (x_end[j] - x_start[j]) * fraction
-        p2 = x2 + lever(q_start[j] + (q_end[j] - q_start[j]) * fraction, a2, n, round2)
+        x2 = start.x[j] + (end.x[j] - start.x[j]) * fraction
+        p2 = x2 + lever(start.q[j] + (end.q[j] - start.q[j]) * fraction, a2, n, round2)
     point = (p1 + p2) * type(fraction)(0.5)
     return point - x1, point - x2
 
 
 @wp.func
-def accumulate(pair: wp.vec2i, body_count: int, v: wp.array(dtype=Any), w: wp.array(dtype=Any),
-               inv_mass: wp.array(dtype=Any), inv_inertia_world: wp.array(dtype=Any), r1: Any, r2: Any, n: Any,
-               target: Any, mu: Any, old_n: Any, old_t: Any):
+def contact_impact_levers(pair: wp.vec2i, body_count: int, start: Any, end: Any, h: Any, rows: Any, k: int):
+    """impact_levers() of contact k of the ContactRows at its time of impact within the step of h seconds."""
+    return impact_levers(pair, body_count, start, end, rows.impact_time[k] / h, rows.anchor1[k], rows.anchor2[k],
+                         rows.normal[k], rows.rounding1[k], rows.rounding2[k])
+
+
+@wp.func
+def accumulate(pair: wp.vec2i, body_count: int, work: Any, mass: Any, r1: Any, r2: Any, n: Any, target: Any,
+               mu: Any, old_n: Any, old_t: Any):
     """One sequential-impulse update of a contact: the accumulated normal impulse [N s] moves toward the one
     that leaves normal velocity ``target`` [m/s], kept >= 0; then the accumulated friction impulse toward
     the one that stops sliding, kept in the Coulomb disc |Jt| <= mu Jn. Returns (Jn, Jt)."""
     zero = old_n * type(old_n)(0.0)
-    rel = relative_velocity(pair, body_count, v, w, r1, r2)
-    k = pair_mass(pair, body_count, inv_mass, inv_inertia_world, r1, r2, n)
+    rel = relative_velocity(pair, body_count, work, r1, r2)
+    k = pair_mass(pair, body_count, work, mass, r1, r2, n)
     total = wp.max(old_n + (target - wp.dot(rel, n)) / k, zero)
     Jt = old_t
     if total > zero or old_n > zero:
-        apply_pair_impulse(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2, n * (total - old_n))
-        rel = relative_velocity(pair, body_count, v, w, r1, r2)
-        Jt = old_t + friction_impulse(pair, body_count, inv_mass, inv_inertia_world, r1, r2, n, rel)
+        apply_pair_impulse(pair, body_count, work, mass, r1, r2, n * (total - old_n))
+        rel = relative_velocity(pair, body_count, work, r1, r2)
+        Jt = old_t + friction_impulse(pair, body_count, work, mass, r1, r2, n, rel)
         limit = mu * total
         length = wp.length(Jt)
         if length > limit:
             Jt = Jt * (limit / length)
-        apply_pair_impulse(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2, Jt - old_t)
+        apply_pair_impulse(pair, body_count, work, mass, r1, r2, Jt - old_t)
     return total, Jt
 
 
 @wp.kernel
-def collision_sweeps(
-    count: int,
-    sweeps: int,
-    ids: wp.array(dtype=wp.vec2i),
-    body_count: int,
-    h: Any,
-    x_start: wp.array(dtype=Any),
-    q_start: wp.array(dtype=Any),
-    x: wp.array(dtype=Any),
-    q: wp.array(dtype=Any),
-    anchor1: wp.array(dtype=Any),
-    anchor2: wp.array(dtype=Any),
-    rounding1: wp.array(dtype=Any),
-    rounding2: wp.array(dtype=Any),
-    normal: wp.array(dtype=Any),
-    impact_time: wp.array(dtype=Any),
-    after_impact: wp.array(dtype=Any),
-    restitution: wp.array(dtype=Any),
-    friction: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    inv_inertia_world: wp.array(dtype=Any),
-    bounce_speed: Any,
-    target: wp.array(dtype=Any),
-    collision_n: wp.array(dtype=Any),
-    collision_t: wp.array(dtype=Any),
-    v: wp.array(dtype=Any),
-    w: wp.array(dtype=Any),
-):
+def collision_sweeps(count: int, sweeps: int, ids: wp.array(dtype=wp.vec2i), body_count: int, h: Any, start: Any,
+                     end: Any, rows: Any, mass: Any, work: Any, bounce_speed: Any):
     """Collisions, pair after pair (Gauss-Seidel), repeated so that impacts propagate through touching
     bodies (Newton's cradle). A pair whose contacts approach faster than bounce_speed at their time of
     impact collides: each such contact must leave with -e times its approach speed u (plus what the
@@ -330,74 +276,54 @@ def collision_sweeps(
         c = int(0)
         while c < count:
             pair = ids[c]
-            end = c + 1
-            while end < count and ids[end][0] == pair[0] and ids[end][1] == pair[1]:
-                end += 1
+            last = c + 1
+            while last < count and ids[last][0] == pair[0] and ids[last][1] == pair[1]:
+                last += 1
             impacts = int(0)
-            for k in range(c, end):
-                target[k] = type(bounce_speed)(-1.0e30)
-                collision_n[k] = zero
-                collision_t[k] = normal[k] * zero
-                if impact_time[k] >= zero:
-                    n = normal[k]
-                    r1, r2 = impact_levers(pair, body_count, x_start, q_start, x, q, impact_time[k] / h, anchor1[k],
-                                           anchor2[k], n, rounding1[k], rounding2[k])
-                    approach = wp.dot(relative_velocity(pair, body_count, v, w, r1, r2), n) - after_impact[k]
+            for k in range(c, last):
+                rows.target[k] = type(bounce_speed)(-1.0e30)
+                rows.collision_n[k] = zero
+                rows.collision_t[k] = rows.normal[k] * zero
+                if rows.impact_time[k] >= zero:
+                    n = rows.normal[k]
+                    r1, r2 = contact_impact_levers(pair, body_count, start, end, h, rows, k)
+                    approach = wp.dot(relative_velocity(pair, body_count, work, r1, r2), n) - rows.after_impact[k]
                     if approach < -bounce_speed:
-                        target[k] = after_impact[k] - restitution[k] * approach
+                        rows.target[k] = rows.after_impact[k] - rows.restitution[k] * approach
                         impacts += 1
             if impacts > 0:
                 for _iteration in range(sweeps):
-                    for k in range(c, end):
-                        if target[k] > type(bounce_speed)(-1.0e29):
-                            n = normal[k]
-                            r1, r2 = impact_levers(pair, body_count, x_start, q_start, x, q, impact_time[k] / h,
-                                                   anchor1[k], anchor2[k], n, rounding1[k], rounding2[k])
-                            jn, jt = accumulate(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2, n,
-                                                target[k], friction[k], collision_n[k], collision_t[k])
-                            collision_n[k] = jn
-                            collision_t[k] = jt
-            c = end
+                    for k in range(c, last):
+                        if rows.target[k] > type(bounce_speed)(-1.0e29):
+                            n = rows.normal[k]
+                            r1, r2 = contact_impact_levers(pair, body_count, start, end, h, rows, k)
+                            jn, jt = accumulate(pair, body_count, work, mass, r1, r2, n, rows.target[k],
+                                                rows.friction[k], rows.collision_n[k], rows.collision_t[k])
+                            rows.collision_n[k] = jn
+                            rows.collision_t[k] = jt
+            c = last
 
 
 @wp.kernel
-def contact_sweeps(
-    count: int,
-    sweeps: int,
-    ids: wp.array(dtype=wp.vec2i),
-    body_count: int,
-    q: wp.array(dtype=Any),
-    anchor1: wp.array(dtype=Any),
-    anchor2: wp.array(dtype=Any),
-    rounding1: wp.array(dtype=Any),
-    rounding2: wp.array(dtype=Any),
-    normal: wp.array(dtype=Any),
-    min_normal_speed: wp.array(dtype=Any),
-    friction: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    inv_inertia_world: wp.array(dtype=Any),
-    impulse_n: wp.array(dtype=Any),
-    impulse_t: wp.array(dtype=Any),
-    v: wp.array(dtype=Any),
-    w: wp.array(dtype=Any),
-):
+def contact_sweeps(count: int, sweeps: int, ids: wp.array(dtype=wp.vec2i), body_count: int, end: Any, rows: Any,
+                   mass: Any, work: Any):
     """Resting and sliding contact, sequential impulses (``accumulate``) toward a normal velocity of at least
     min_normal_speed at the end of the step, starting from the impulses the same contact needed last
     step (warm starting), so stacks converge in a few sweeps."""
     for c in range(count):   # warm start: last step's impulses of the same contacts
         pair = ids[c]
-        r1, r2 = levers(pair, body_count, q, anchor1[c], anchor2[c], normal[c], rounding1[c], rounding2[c])
-        apply_pair_impulse(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2,
-                           normal[c] * impulse_n[c] + impulse_t[c])
+        r1, r2 = contact_levers(pair, body_count, end.q, rows, c)
+        apply_pair_impulse(pair, body_count, work, mass, r1, r2,
+                           rows.normal[c] * rows.impulse_n[c] + rows.impulse_t[c])
     for _sweep in range(sweeps):
         for c in range(count):
             pair = ids[c]
-            n = normal[c]
-            r1, r2 = levers(pair, body_count, q, anchor1[c], anchor2[c], n, rounding1[c], rounding2[c])
-            jn, jt = accumulate(pair, body_count, v, w, inv_mass, inv_inertia_world, r1, r2, n, min_normal_speed[c],
-                                friction[c], impulse_n[c], impulse_t[c])
-            impulse_n[c] = jn
-            impulse_t[c] = jt
+            n = rows.normal[c]
+            r1, r2 = contact_levers(pair, body_count, end.q, rows, c)
+            jn, jt = accumulate(pair, body_count, work, mass, r1, r2, n, rows.min_normal_speed[c],
+                                rows.friction[c], rows.impulse_n[c], rows.impulse_t[c])
+            rows.impulse_n[c] = jn
+            rows.impulse_t[c] = jt
 
 
 # warm starting: last step's impulses, found again by pair and anchor cell -----------------
@@ -415,64 +341,41 @@ def contact_slot(pair: wp.vec2i, cell: wp.vec3i, mask: int):
 
 
 @wp.kernel
-def remember_impulses(
-    geoms: Geoms,
-    ids: wp.array(dtype=wp.vec2i),
-    anchor1: wp.array(dtype=Any),
-    impulse_n: wp.array(dtype=Any),
-    impulse_t: wp.array(dtype=Any),
-    used: wp.array(dtype=wp.int32),
-    keys: wp.array(dtype=wp.vec2i),
-    cells: wp.array(dtype=wp.vec3i),
-    stored_n: wp.array(dtype=Any),
-    stored_t: wp.array(dtype=Any),
-):
+def remember_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows: Any, table: Any):
     """Store each contact's accumulated impulses in an open-addressing table (capacity a power of two)."""
     c = wp.tid()
     pair = ids[c]
-    cell = contact_cell(geoms, pair[0], anchor1[c])
-    mask = used.shape[0] - 1
+    cell = contact_cell(geoms, pair[0], rows.anchor1[c])
+    mask = table.used.shape[0] - 1
     slot = contact_slot(pair, cell, mask)
-    for _probe in range(used.shape[0]):
-        if wp.atomic_cas(used, slot, 0, 1) == 0:
-            keys[slot] = pair
-            cells[slot] = cell
-            stored_n[slot] = impulse_n[c]
-            stored_t[slot] = impulse_t[c]
+    for _probe in range(table.used.shape[0]):
+        if wp.atomic_cas(table.used, slot, 0, 1) == 0:
+            table.keys[slot] = pair
+            table.cells[slot] = cell
+            table.n[slot] = rows.impulse_n[c]
+            table.t[slot] = rows.impulse_t[c]
             break
         slot = (slot + 1) & mask
 
 
 @wp.kernel
-def recall_impulses(
-    geoms: Geoms,
-    ids: wp.array(dtype=wp.vec2i),
-    anchor1: wp.array(dtype=Any),
-    normal: wp.array(dtype=Any),
-    used: wp.array(dtype=wp.int32),
-    keys: wp.array(dtype=wp.vec2i),
-    cells: wp.array(dtype=wp.vec3i),
-    stored_n: wp.array(dtype=Any),
-    stored_t: wp.array(dtype=Any),
-    impulse_n: wp.array(dtype=Any),
-    impulse_t: wp.array(dtype=Any),
-):
+def recall_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows: Any, table: Any):
     """Start each contact from last step's impulses of the same contact (each stored entry used once), friction
     projected onto the new tangent plane."""
     c = wp.tid()
     pair = ids[c]
-    cell = contact_cell(geoms, pair[0], anchor1[c])
-    mask = used.shape[0] - 1
+    cell = contact_cell(geoms, pair[0], rows.anchor1[c])
+    mask = table.used.shape[0] - 1
     slot = contact_slot(pair, cell, mask)
-    for _probe in range(used.shape[0]):
-        state = used[slot]
+    for _probe in range(table.used.shape[0]):
+        state = table.used[slot]
         if state == 0:
             break
-        if keys[slot][0] == pair[0] and keys[slot][1] == pair[1] and cells[slot] == cell:
-            if wp.atomic_cas(used, slot, 1, 2) == 1:
-                n = normal[c]
-                impulse_n[c] = stored_n[slot]
-                impulse_t[c] = stored_t[slot] - n * wp.dot(n, stored_t[slot])
+        if table.keys[slot][0] == pair[0] and table.keys[slot][1] == pair[1] and table.cells[slot] == cell:
+            if wp.atomic_cas(table.used, slot, 1, 2) == 1:
+                n = rows.normal[c]
+                rows.impulse_n[c] = table.n[slot]
+                rows.impulse_t[c] = table.t[slot] - n * wp.dot(n, table.t[slot])
                 break
         slot = (slot + 1) & mask
 
@@ -486,23 +389,7 @@ def turn(q: Any, angle: Any):
 
 
 @wp.kernel
-def finish_response(
-    h: Any,
-    position_response: Any,
-    inv_mass: wp.array(dtype=Any),
-    inv_inertia: wp.array(dtype=Any),
-    P_end: wp.array(dtype=Any),
-    L_end: wp.array(dtype=Any),
-    v_collided: wp.array(dtype=Any),
-    w_collided: wp.array(dtype=Any),
-    v: wp.array(dtype=Any),
-    w: wp.array(dtype=Any),
-    body_impact: wp.array(dtype=Any),
-    x: wp.array(dtype=Any),
-    q: wp.array(dtype=Any),
-    P: wp.array(dtype=Any),
-    L: wp.array(dtype=Any),
-):
+def finish_response(h: Any, position_response: Any, mass: Any, collided: Any, work: Any, end: Any):
     """Write the response into the end-of-step state. A collision impulse acts at the body's time of impact
     t, so the position moves by its velocity change times the rest of the step, (h - t); a contact impulse
     stands for a force over the whole step, so the position moves as the solver moves it for a force,
@@ -511,38 +398,25 @@ def finish_response(
     impulses' moments, I(t) times the change of omega, and is then kept for the rest of the step."""
     i = wp.tid()
     one = type(h)(1.0)
-    t = body_impact[i]
+    t = work.impact[i]
     if t > one:
         t = type(h)(0.0)
-    v0 = P_end[i] * inv_mass[i]
-    R0 = wp.quat_to_matrix(wp.normalize(q[i]))
-    w0 = R0 * inv_inertia[i] * wp.transpose(R0) * L_end[i]
-    shift = (v_collided[i] - v0) * ((one - t) * h) + (v[i] - v_collided[i]) * (position_response * h)
-    angle = (w_collided[i] - w0) * ((one - t) * h) + (w[i] - w_collided[i]) * (position_response * h)
-    x[i] = x[i] + shift
-    q_new = turn(q[i], angle)
-    q[i] = q_new
-    P[i] = v[i] / inv_mass[i]
-    L[i] = L_end[i] + R0 * wp.inverse(inv_inertia[i]) * wp.transpose(R0) * (w[i] - w0)   # L += I(t) (omega change)
+    v0 = end.P[i] * mass.inv_mass[i]
+    R0 = wp.quat_to_matrix(wp.normalize(end.q[i]))
+    w0 = R0 * mass.inv_inertia[i] * wp.transpose(R0) * end.L[i]
+    shift = (collided.v[i] - v0) * ((one - t) * h) + (work.v[i] - collided.v[i]) * (position_response * h)
+    angle = (collided.w[i] - w0) * ((one - t) * h) + (work.w[i] - collided.w[i]) * (position_response * h)
+    end.x[i] = end.x[i] + shift
+    q_new = turn(end.q[i], angle)
+    end.q[i] = q_new
+    end.P[i] = work.v[i] / mass.inv_mass[i]
+    # L += I(t) (omega change)
+    end.L[i] = end.L[i] + R0 * wp.inverse(mass.inv_inertia[i]) * wp.transpose(R0) * (work.w[i] - w0)
 
 
 @wp.kernel
-def project_positions(
-    count: int,
-    sweeps: int,
-    ids: wp.array(dtype=wp.vec2i),
-    body_count: int,
-    anchor1: wp.array(dtype=Any),
-    anchor2: wp.array(dtype=Any),
-    rounding1: wp.array(dtype=Any),
-    rounding2: wp.array(dtype=Any),
-    normal: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    inv_inertia: wp.array(dtype=Any),
-    slop: Any,
-    x: wp.array(dtype=Any),
-    q: wp.array(dtype=Any),
-):
+def project_positions(count: int, sweeps: int, ids: wp.array(dtype=wp.vec2i), body_count: int, rows: Any, mass: Any,
+                      slop: Any, end: Any):
     """Push overlapping bodies apart along the contact normals to within ``slop`` [m] of touching, positions
     only (velocities untouched, so no energy is added), Gauss-Seidel over the contacts."""
     zero = type(slop)(0.0)
@@ -551,27 +425,27 @@ def project_positions(
             pair = ids[c]
             i = pair[0]
             j = pair[1]
-            n = normal[c]
-            r1, r2 = levers(pair, body_count, q, anchor1[c], anchor2[c], n, rounding1[c], rounding2[c])
-            p2 = anchor2[c] + n * rounding2[c]
+            n = rows.normal[c]
+            r1, r2 = contact_levers(pair, body_count, end.q, rows, c)
+            p2 = rows.anchor2[c] + n * rows.rounding2[c]
             if is_body(j, body_count):
-                p2 = x[j] + r2
-            depth = -wp.dot(n, x[i] + r1 - p2) - slop
+                p2 = end.x[j] + r2
+            depth = -wp.dot(n, end.x[i] + r1 - p2) - slop
             if depth > zero:
-                R1 = wp.quat_to_matrix(wp.normalize(q[i]))
-                inv1 = R1 * inv_inertia[i] * wp.transpose(R1)
-                k = response_mass(inv_mass[i], inv1, r1, n)
+                R1 = wp.quat_to_matrix(wp.normalize(end.q[i]))
+                inv1 = R1 * mass.inv_inertia[i] * wp.transpose(R1)
+                k = response_mass(mass.inv_mass[i], inv1, r1, n)
                 inv2 = inv1
                 if is_body(j, body_count):
-                    R2 = wp.quat_to_matrix(wp.normalize(q[j]))
-                    inv2 = R2 * inv_inertia[j] * wp.transpose(R2)
-                    k += response_mass(inv_mass[j], inv2, r2, n)
+                    R2 = wp.quat_to_matrix(wp.normalize(end.q[j]))
+                    inv2 = R2 * mass.inv_inertia[j] * wp.transpose(R2)
+                    k += response_mass(mass.inv_mass[j], inv2, r2, n)
                 push = depth / k
-                x[i] = x[i] + n * (push * inv_mass[i])
-                q[i] = turn(q[i], inv1 * wp.cross(r1, n) * push)
+                end.x[i] = end.x[i] + n * (push * mass.inv_mass[i])
+                end.q[i] = turn(end.q[i], inv1 * wp.cross(r1, n) * push)
                 if is_body(j, body_count):
-                    x[j] = x[j] - n * (push * inv_mass[j])
-                    q[j] = turn(q[j], -(inv2 * wp.cross(r2, n)) * push)
+                    end.x[j] = end.x[j] - n * (push * mass.inv_mass[j])
+                    end.q[j] = turn(end.q[j], -(inv2 * wp.cross(r2, n)) * push)
 
 
 declare_precisions(globals())

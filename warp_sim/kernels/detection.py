@@ -50,6 +50,10 @@ class Geoms:
     x: wp.array(dtype=wp.vec3f)              # pose at the start of the step
     q: wp.array(dtype=wp.quatf)
     reach: wp.array(dtype=wp.float32)        # bound + motion over the step + contact margin [m]
+    plane_normal: wp.array(dtype=wp.vec3f)   # the planes n . x = offset [m], their restitution and friction
+    plane_offset: wp.array(dtype=wp.float32)
+    plane_restitution: wp.array(dtype=wp.float32)
+    plane_friction: wp.array(dtype=wp.float32)
     body_count: int
 
 
@@ -109,40 +113,26 @@ def emit_pair(buf: ContactBuffer, a: int, b: int):
 
 # broad phase ------------------------------------------------------------------
 @wp.kernel
-def gather_poses(
-    x_start: wp.array(dtype=Any),
-    q_start: wp.array(dtype=Any),
-    x_end: wp.array(dtype=Any),
-    q_end: wp.array(dtype=Any),
-    margin: float,
-    geoms: Geoms,
-    max_reach: wp.array(dtype=wp.float32),
-):
-    """Copy each body's start pose into the geoms and bound how far its surface can move over the step."""
+def gather_poses(start: Any, end: Any, margin: float, geoms: Geoms, max_reach: wp.array(dtype=wp.float32)):
+    """Copy each body's start pose (start: Bodies) into the geoms and bound how far its surface can move over the
+    step to its end pose (end: Bodies)."""
     i = wp.tid()
-    x = wp.vec3f(x_start[i])
-    q = wp.quatf(q_start[i])
+    x = wp.vec3f(start.x[i])
+    q = wp.quatf(start.q[i])
     geoms.x[i] = x
     geoms.q[i] = q
-    qe = wp.quatf(q_end[i])
+    qe = wp.quatf(end.q[i])
     cos_half = wp.min(wp.abs(wp.dot(q, qe)), 1.0)
     turn = 2.0 * wp.acos(cos_half)   # rotation angle between the poses [rad]
-    travel = wp.length(wp.vec3f(x_end[i]) - x) + geoms.bound[i] * wp.min(turn, 2.0)
+    travel = wp.length(wp.vec3f(end.x[i]) - x) + geoms.bound[i] * wp.min(turn, 2.0)
     reach = geoms.bound[i] + travel + margin
     geoms.reach[i] = reach
     wp.atomic_max(max_reach, 0, reach)
 
 
 @wp.kernel
-def find_pairs(
-    geoms: Geoms,
-    grid: wp.uint64,
-    static_count: int,
-    plane_normal: wp.array(dtype=wp.vec3f),
-    plane_offset: wp.array(dtype=wp.float32),
-    max_reach: wp.array(dtype=wp.float32),
-    pairs: ContactBuffer,
-):
+def find_pairs(geoms: Geoms, grid: wp.uint64, static_count: int, max_reach: wp.array(dtype=wp.float32),
+               pairs: ContactBuffer):
     """Candidate pairs of body i: bodies j > i near it in the hash grid, static colliders and planes it may reach."""
     i = wp.tid()
     x = geoms.x[i]
@@ -156,8 +146,8 @@ def find_pairs(
         g = geoms.body_count + s
         if wp.length(geoms.x[g] - x) <= reach + geoms.bound[g]:
             emit_pair(pairs, i, g)
-    for k in range(plane_normal.shape[0]):
-        if wp.dot(plane_normal[k], x) - plane_offset[k] <= reach:
+    for k in range(geoms.plane_normal.shape[0]):
+        if wp.dot(geoms.plane_normal[k], x) - geoms.plane_offset[k] <= reach:
             emit_pair(pairs, i, -1 - k)
 
 
@@ -361,14 +351,7 @@ def box_box(geoms: Geoms, a: int, b: int, margin: float, buf: ContactBuffer):
 
 
 @wp.kernel
-def narrow_phase(
-    pairs: ContactBuffer,
-    geoms: Geoms,
-    plane_normal: wp.array(dtype=wp.vec3f),
-    plane_offset: wp.array(dtype=wp.float32),
-    margin: float,
-    contacts: ContactBuffer,
-):
+def narrow_phase(pairs: ContactBuffer, geoms: Geoms, margin: float, contacts: ContactBuffer):
     """Contacts of candidate pair p at the start of the step, for gaps below the pair's margin (the contact
     margin plus how far the bodies can move over the step, so nothing passes through in one step)."""
     p = wp.tid()
@@ -377,7 +360,7 @@ def narrow_phase(
     reach_a = geoms.reach[a] - geoms.bound[a]
     if b < 0:
         k = -1 - b
-        samples_against_plane(geoms, a, k, plane_normal[k], plane_offset[k], reach_a, contacts)
+        samples_against_plane(geoms, a, k, geoms.plane_normal[k], geoms.plane_offset[k], reach_a, contacts)
         return
     pair_margin = reach_a + geoms.reach[b] - geoms.bound[b]
     if not is_body(b, geoms.body_count):

@@ -286,8 +286,8 @@ def age_and_kill(
 ):
     """Age every live particle of the pool to now - birth [s] (float64); kill those past their
     lifetime (within 1e-9 s), behind a kill plane (n . x < offset) or, where contact ``planes`` are
-    given (a kernels.blocks Planes, empty otherwise), touching one (flagged in touched by the impulse pass, or within radius + 1e-6 m);
-    update colour, opacity and size from their ramps over normalised age.
+    given (a kernels.blocks Planes, empty otherwise), touching one (flagged in touched by the impulse
+    pass, or within radius + 1e-6 m); update colour, opacity and size from their ramps over normalised age.
 
     A death makes the slot inert (inv_mass 0, v 0, x kept) and pushes it onto free_slots.
     """

@@ -13,7 +13,7 @@ from typing import Any
 
 import warp as wp
 
-from .contacts import pair_material, state_point_velocity
+from .contacts import body_point_velocity, pair_material
 from .detection import ContactBuffer, Geoms, is_body
 from .planes import contact_material
 from .precisions import declare_precisions
@@ -127,44 +127,32 @@ def plane_penalty_forces(
 
 
 @wp.kernel
-def body_penalty_forces(
-    contacts: ContactBuffer,
-    geoms: Geoms,
-    plane_restitution: wp.array(dtype=wp.float32),
-    plane_friction: wp.array(dtype=wp.float32),
-    x: wp.array(dtype=Any),
-    q: wp.array(dtype=Any),
-    P: wp.array(dtype=Any),
-    L: wp.array(dtype=Any),
-    inv_mass: wp.array(dtype=Any),
-    inv_inertia: wp.array(dtype=Any),
-    stiffness: Any,
-    body_f: wp.array(dtype=Any),
-    body_t: wp.array(dtype=Any),
-):
+def body_penalty_forces(contacts: ContactBuffer, geoms: Geoms, bodies: Any, mass: Any, stiffness: Any,
+                        accumulated: Any):
     """Spring and damper on each body contact's overlap: F_n = max(k depth - c v_n, 0) along n, with the damper
     of penalty_damping for the pair's reduced mass (the contact rebounds with its restitution e); friction
-    opposes sliding with min(mu F_n, c |v_t|). body_f [N], body_t [N m]: accumulators."""
+    opposes sliding with min(mu F_n, c |v_t|). bodies: Bodies; mass: BodyMass; accumulated: the force [N]
+    and torque [N m] accumulators (Wrench)."""
     c = wp.tid()
     i = contacts.ids[c][0]
     j = contacts.ids[c][1]
     zero = type(stiffness)(0.0)
-    n = type(x[0])(contacts.normal[c])
+    n = type(bodies.x[0])(contacts.normal[c])
     p1 = type(n)(contacts.point1[c]) - n * type(stiffness)(contacts.radius1[c])   # the surface points
     p2 = type(n)(contacts.point2[c]) + n * type(stiffness)(contacts.radius2[c])
     depth = -wp.dot(n, p1 - p2)
     if depth <= zero:
         return
-    r1 = p1 - x[i]
-    rel = state_point_velocity(q[i], P[i], L[i], inv_mass[i], inv_inertia[i], r1)
-    inverse_mass = inv_mass[i]
+    r1 = p1 - bodies.x[i]
+    rel = body_point_velocity(bodies, mass, i, r1)
+    inverse_mass = mass.inv_mass[i]
     dynamic = is_body(j, geoms.body_count)
     r2 = p2 * zero
     if dynamic:
-        r2 = p2 - x[j]
-        rel -= state_point_velocity(q[j], P[j], L[j], inv_mass[j], inv_inertia[j], r2)
-        inverse_mass += inv_mass[j]
-    e32, mu32 = pair_material(geoms, plane_restitution, plane_friction, i, j)
+        r2 = p2 - bodies.x[j]
+        rel -= body_point_velocity(bodies, mass, j, r2)
+        inverse_mass += mass.inv_mass[j]
+    e32, mu32 = pair_material(geoms, i, j)
     e = type(stiffness)(e32)
     mu = type(stiffness)(mu32)
     damping = penalty_damping(stiffness, type(stiffness)(1.0) / inverse_mass, e)
@@ -175,11 +163,11 @@ def body_penalty_forces(
     F = n * fn
     if speed > type(stiffness)(1.0e-12):
         F -= slide * (wp.min(mu * fn, damping * speed) / speed)
-    wp.atomic_add(body_f, i, F)
-    wp.atomic_add(body_t, i, wp.cross(r1, F))
+    wp.atomic_add(accumulated.force, i, F)
+    wp.atomic_add(accumulated.torque, i, wp.cross(r1, F))
     if dynamic:
-        wp.atomic_sub(body_f, j, F)
-        wp.atomic_sub(body_t, j, wp.cross(r2, F))
+        wp.atomic_sub(accumulated.force, j, F)
+        wp.atomic_sub(accumulated.torque, j, wp.cross(r2, F))
 
 
 declare_precisions(globals())

@@ -19,7 +19,7 @@ __all__ = []
 #: generic arguments that are blocks (kernels.blocks), by argument name
 BLOCKS = {"bodies": "Bodies", "start": "Bodies", "end": "Bodies", "positions": "Bodies", "velocities": "Bodies",
           "rates": "Bodies", "mass": "BodyMass", "held": "Wrench", "accumulated": "Wrench", "springs": "Springs",
-          "planes": "Planes", "material": "ParticleMaterial", "work": "BodyVelocities", "rows": "ContactRows",
+          "planes": "Planes", "material": "ParticleMaterial", "work": "BodyVelocities", "rows": "ContactRows", "collided": "BodyVelocities",
           "table": "ImpulseTable"}
 
 VECTORS = {"x_start", "P_start", "L_start", "x_end", "P_end", "L_end", "anchor1", "anchor2", "normal", "impulse_t",

@@ -42,10 +42,10 @@ def body_position_rates(positions: Any, velocities: Any, mass: Any, rates: Any):
     """dx/dt = v = P / M [m/s] and dq/dt = 1/2 (omega, 0) q [1/s], omega = R I_body^-1 R^T L, into rates.x, rates.q.
 
     Args:
-        positions: the orientations q read from here (Bodies) [m]
-        velocities: the momenta P, L read from here (Bodies) [kg m/s]
-        mass: inverse masses and body-frame inverse inertia tensors (BodyMass) [1/kg]
-        rates: x and q written with dx/dt and dq/dt (Bodies) [m/s]
+        positions: the orientations q read from here, its other fields unused (Bodies) [1]
+        velocities: the momenta P, L read from here, its other fields unused (Bodies) [kg m/s]
+        mass: inverse masses inv_mass and body-frame inverse inertia tensors inv_inertia (BodyMass) [1/kg]
+        rates: x and q written with dx/dt and dq/dt, P and L untouched (Bodies) [m/s]
     """
     i = wp.tid()
     q = positions.q[i]
@@ -62,15 +62,15 @@ def body_momentum_rates(bodies: Any, mass: Any, drag: wp.array(dtype=Any), angul
     torque + accumulated torque, with v = P / M and omega = R I_body^-1 R^T L.
 
     Args:
-        bodies: orientations and momenta (Bodies) [kg m/s]
-        mass: inverse masses (> 0) and body-frame inverse inertia tensors (BodyMass) [1/kg]
+        bodies: orientations q and momenta P, L read (Bodies) [kg m/s]
+        mass: inverse masses inv_mass (> 0) and body-frame inverse inertia tensors inv_inertia (BodyMass) [1/kg]
         drag: linear drag coefficients, per body [N s/m]
         angular_drag: angular drag coefficients, per body [N m s/rad]
         gravity: the gravitational acceleration g (vec3) [m/s^2]
         wind: the air's velocity (vec3) [m/s]
-        held: forces and torques the user holds between steps, at the centres of mass (Wrench) [N]
-        accumulated: the force terms' accumulators, or empty arrays when none acts on bodies (Wrench) [N]
-        rates: P and L written with dP/dt = F and dL/dt = tau (Bodies) [N]
+        held: the force and torque the user holds between steps, about the centres of mass (Wrench) [N]
+        accumulated: the force terms' summed force and torque, or empty arrays when none acts on bodies (Wrench) [N]
+        rates: P and L written with dP/dt = F and dL/dt = tau, x and q untouched (Bodies) [N]
     """
     i = wp.tid()
     w = mass.inv_mass[i]
@@ -101,8 +101,8 @@ def body_velocities(bodies: Any, mass: Any, v: wp.array(dtype=Any), omega: wp.ar
     """The auxiliaries v = P / M [m/s] and omega = I(t)^-1 L [rad/s], world frame.
 
     Args:
-        bodies: orientations and momenta (Bodies) [kg m/s]
-        mass: inverse masses and body-frame inverse inertia tensors (BodyMass) [1/kg]
+        bodies: orientations q and momenta P, L read (Bodies) [kg m/s]
+        mass: inverse masses inv_mass and body-frame inverse inertia tensors inv_inertia (BodyMass) [1/kg]
         v: linear velocities of the centres of mass, written (vec3) [m/s]
         omega: angular velocities, world frame, written (vec3) [rad/s]
     """
@@ -131,7 +131,7 @@ def apply_impulse(body: int, impulse: Any, point: Any, bodies: Any):
         body: the index of the body [1]
         impulse: the impulse J, world frame (vec3) [N s]
         point: the world point p where it acts (vec3) [m]
-        bodies: centres of mass read, momenta P and L updated in place (Bodies) [kg m/s]
+        bodies: centres of mass x read, momenta P and L updated in place (Bodies) [kg m/s]
     """
     bodies.P[body] = bodies.P[body] + impulse
     bodies.L[body] = bodies.L[body] + wp.cross(point - bodies.x[body], impulse)

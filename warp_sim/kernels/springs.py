@@ -29,7 +29,7 @@ def spring_forces(
     Args:
         x: particle positions (vec3) [m]
         v: particle velocities (vec3) [m/s]
-        springs: per spring its particles (p1, p2), ks, kd and L0 (Springs) [N/m]
+        springs: per spring its particles pairs (p1, p2), stiffness ks, damping kd, rest_length L0 (Springs) [N/m]
         force: per-particle force accumulator, added to (vec3) [N]
     """
     s = wp.tid()

@@ -30,6 +30,7 @@ from ..core.model import Model
 from ..core.protocols import Pass
 from ..core.state import State
 from ..detection import Detection
+from ..kernels import blocks
 from ..kernels import contacts as contact_kernels
 
 
@@ -55,32 +56,27 @@ class BodyContacts(Pass):
         self.sweeps = (collision_sweeps, contact_sweeps, position_sweeps)
         self.position_response = position_response
         B = model.body_count
-        device = model.device
         vec3, mat33, scalar = model.vec3, model.mat33, model.scalar
-        self.v, self.w, self.v_collided, self.w_collided = (wp.zeros(B, dtype=vec3, device=device) for _ in range(4))
-        self.inv_inertia_world = wp.zeros(B, dtype=mat33, device=device)
-        self.body_impact = wp.zeros(B, dtype=scalar, device=device)
+        zeros = model.zeros
+        self.work = blocks.fill(model.blocks.BodyVelocities, v=zeros(B, vec3), w=zeros(B, vec3),
+                                inv_inertia_world=zeros(B, mat33), impact=zeros(B, scalar))
+        # the velocities after the collision phase (the same inertia and impacts as the working set)
+        self.collided = blocks.fill(model.blocks.BodyVelocities, v=zeros(B, vec3), w=zeros(B, vec3),
+                                    inv_inertia_world=self.work.inv_inertia_world, impact=self.work.impact)
         self._capacity = 0
         self._ensure(self.detection.contacts.capacity)
 
     def _ensure(self, capacity: int) -> None:
+        """Per-contact rows and the warm-start table for at least ``capacity`` contacts (they only grow)."""
         if capacity <= self._capacity:
             return
         m = self.model
         self._capacity = capacity
-        vec3, scalar = m.vec3, m.scalar
-        self.anchor1, self.anchor2, self.normal, self.impulse_t = (
-            wp.zeros(capacity, dtype=vec3, device=m.device) for _ in range(4))
-        self.impact_time, self.after_impact, self.min_normal_speed, self.restitution, self.friction, \
-            self.impulse_n, self.rounding1, self.rounding2, self.target, self.collision_n = (
-                wp.zeros(capacity, dtype=scalar, device=m.device) for _ in range(10))
-        self.collision_t = wp.zeros(capacity, dtype=vec3, device=m.device)
+        self.rows = blocks.fill(m.blocks.ContactRows, **{name: m.zeros(capacity, var.type.dtype)
+                                                          for name, var in m.blocks.ContactRows.vars.items()})
         slots = 1 << int(2 * capacity - 1).bit_length()   # a power of two, at least twice the contacts
-        self.table_used = wp.zeros(slots, dtype=wp.int32, device=m.device)
-        self.table_keys = wp.zeros(slots, dtype=wp.vec2i, device=m.device)
-        self.table_cells = wp.zeros(slots, dtype=wp.vec3i, device=m.device)
-        self.table_n = wp.zeros(slots, dtype=scalar, device=m.device)
-        self.table_t = wp.zeros(slots, dtype=vec3, device=m.device)
+        self.table = blocks.fill(m.blocks.ImpulseTable, used=m.zeros(slots, wp.int32), keys=m.zeros(slots, wp.vec2i),
+                                 cells=m.zeros(slots, wp.vec3i), n=m.zeros(slots), t=m.zeros(slots, m.vec3))
 
     @property
     def count(self) -> int:
@@ -100,7 +96,7 @@ class BodyContacts(Pass):
         m = self.model
         count = self.detection.detect(start, end)
         if count == 0:
-            self.table_used.zero_()   # nothing to warm-start from next step
+            self.table.used.zero_()   # nothing to warm-start from next step
             return
         self._ensure(count)
         T = m.scalar
@@ -108,43 +104,21 @@ class BodyContacts(Pass):
         bounce = self.bounce_speed if self.bounce_speed is not None else max(2.0 * gravity * h, 1e-6)
         B = m.body_count
         c = self.detection.contacts.buffer
-        d = self.detection
-        m.launch(contact_kernels.load_velocities, B, [end.body_q, end.body_P, end.body_L, m.body_inv_mass,
-                                                      m.body_inv_inertia, self.v, self.w, self.inv_inertia_world,
-                                                      self.body_impact])
-        m.launch(contact_kernels.prepare_contacts, count, [
-            c, self.geometry.geoms, d.planes_restitution, d.planes_friction,
-            start.body_x, start.body_q, start.body_P, start.body_L, end.body_x, end.body_q, end.body_P, end.body_L,
-            m.body_inv_mass, m.body_inv_inertia, T(h), T(bounce), T(self.slop),
-            self.anchor1, self.anchor2, self.rounding1, self.rounding2, self.normal, self.impact_time,
-            self.after_impact, self.min_normal_speed,
-            self.restitution,
-            self.friction, self.impulse_n, self.impulse_t, self.body_impact])
-        geoms = self.geometry.geoms
-        table = [self.table_used, self.table_keys, self.table_cells, self.table_n, self.table_t]
-        m.launch(contact_kernels.recall_impulses, count, [geoms, c.ids, self.anchor1, self.normal, *table,
-                                                          self.impulse_n, self.impulse_t])
+        rows, work, table, geoms = self.rows, self.work, self.table, self.geometry.geoms
+        mass = m.body_mass
+        m.launch(contact_kernels.load_velocities, B, [end.bodies, mass, work])
+        m.launch(contact_kernels.prepare_contacts, count, [c, geoms, start.bodies, end.bodies, mass, T(h), T(bounce),
+                                                           T(self.slop), rows, work])
+        m.launch(contact_kernels.recall_impulses, count, [geoms, c.ids, rows, table])
         collisions, contacts, positions = self.sweeps
-        m.launch(contact_kernels.collision_sweeps, 1, [
-            count, collisions, c.ids, B, T(h), start.body_x, start.body_q, end.body_x, end.body_q, self.anchor1,
-            self.anchor2, self.rounding1, self.rounding2, self.normal, self.impact_time, self.after_impact,
-            self.restitution, self.friction,
-            m.body_inv_mass, self.inv_inertia_world, T(bounce), self.target, self.collision_n, self.collision_t,
-            self.v, self.w])
-        wp.copy(self.v_collided, self.v)
-        wp.copy(self.w_collided, self.w)
-        m.launch(contact_kernels.contact_sweeps, 1, [
-            count, contacts, c.ids, B, end.body_q, self.anchor1, self.anchor2, self.rounding1, self.rounding2,
-            self.normal, self.min_normal_speed,
-            self.friction, m.body_inv_mass, self.inv_inertia_world, self.impulse_n, self.impulse_t, self.v, self.w])
-        self.table_used.zero_()
-        m.launch(contact_kernels.remember_impulses, count, [geoms, c.ids, self.anchor1, self.impulse_n,
-                                                            self.impulse_t, *table])
-        m.launch(contact_kernels.finish_response, B, [
-            T(h), T(self.position_response), m.body_inv_mass, m.body_inv_inertia, end.body_P, end.body_L,
-            self.v_collided, self.w_collided, self.v, self.w, self.body_impact, end.body_x, end.body_q, end.body_P,
-            end.body_L])
-        m.launch(contact_kernels.project_positions, 1, [
-            count, positions, c.ids, B, self.anchor1, self.anchor2, self.rounding1, self.rounding2, self.normal,
-            m.body_inv_mass,
-            m.body_inv_inertia, T(self.slop), end.body_x, end.body_q])
+        m.launch(contact_kernels.collision_sweeps, 1, [count, collisions, c.ids, B, T(h), start.bodies, end.bodies,
+                                                       rows, mass, work, T(bounce)])
+        wp.copy(self.collided.v, work.v)
+        wp.copy(self.collided.w, work.w)
+        m.launch(contact_kernels.contact_sweeps, 1, [count, contacts, c.ids, B, end.bodies, rows, mass, work])
+        table.used.zero_()
+        m.launch(contact_kernels.remember_impulses, count, [geoms, c.ids, rows, table])
+        m.launch(contact_kernels.finish_response, B, [T(h), T(self.position_response), mass, self.collided, work,
+                                                      end.bodies])
+        m.launch(contact_kernels.project_positions, 1, [count, positions, c.ids, B, rows, mass, T(self.slop),
+                                                        end.bodies])

@@ -7,6 +7,7 @@ from ..core.model import Model
 from ..core.protocols import Pass
 from ..core.state import State
 from ..detection import ContactGeometry, Detection
+from ..kernels import blocks
 from ..kernels import particle_shapes as shape_kernels
 
 
@@ -24,14 +25,15 @@ class ParticleShapeContacts(Pass):
         self.geometry = geometry
         self.detection = detection
         self.touched = model.empty(wp.int32)
+        empty, vec3 = model.empty, model.vec3
+        self.no_bodies = (blocks.fill(model.blocks.Bodies, x=empty(vec3), q=empty(model.quat), P=empty(vec3),
+                                      L=empty(vec3)),
+                          blocks.fill(model.blocks.BodyMass, inv_mass=empty(), inv_inertia=empty(model.mat33)))
 
     def apply(self, start: State, end: State, t: float, h: float) -> None:
         m = self.model
         grid = self.detection.grid.id if self.detection is not None and self.detection.grid is not None else 0
-        empty_vec, empty_q = m.empty(m.vec3), m.empty(wp.types.quaternion(m.scalar))
-        bodies = [end.body_x, end.body_q, end.body_P, end.body_L, m.body_inv_mass, m.body_inv_inertia] \
-            if m.body_count else [empty_vec, empty_q, empty_vec, empty_vec, m.empty(), m.empty(m.mat33)]
+        bodies, mass = (end.bodies, m.body_mass) if m.body_count else self.no_bodies
         m.launch(shape_kernels.push_particles, m.particle_count, [
-            self.geometry.geoms, wp.uint64(grid), self.geometry.static_count, self.geometry.max_reach, *bodies,
-            end.particle_x, end.particle_v, m.particle_inv_mass, m.particle_radius, m.particle_restitution,
-            m.particle_friction, self.touched])
+            self.geometry.geoms, wp.uint64(grid), self.geometry.static_count, self.geometry.max_reach, bodies, mass,
+            end.particle_x, end.particle_v, m.particle_material, self.touched])
