@@ -10,6 +10,7 @@ import warp as wp
 
 import warp_sim as ws
 from warp_sim import Attractor, Turbulence, Vortex
+from warp_sim.kernels import blocks
 from warp_sim.kernels import fields as field_kernels
 
 GM = 2.0                                    # [m^3/s^2]
@@ -142,11 +143,12 @@ def sample_turbulence(points, device, t=0.0, strength=1.0, scale=1.0, frequency=
         return wp.array(np.array([value], dtype=precision), dtype=scalar, device=device)
 
     force = wp.zeros(n, dtype=vec3, device=device)
+    fields = blocks.fill(blocks.of(scalar).Turbulences, strength=one(strength), inv_scale=one(1.0 / scale),
+                         frequency=one(frequency), seed=wp.array([seed], dtype=wp.int32, device=device),
+                         octaves=wp.array([octaves], dtype=wp.int32, device=device))
     wp.launch(field_kernels.turbulence_forces, n,
               [wp.array(np.asarray(points, dtype=precision), dtype=vec3, device=device),
-               wp.ones(n, dtype=scalar, device=device), scalar(t), one(strength), one(1.0 / scale), one(frequency),
-               wp.array([seed], dtype=wp.int32, device=device), wp.array([octaves], dtype=wp.int32, device=device),
-               force], device=device)
+               wp.ones(n, dtype=scalar, device=device), scalar(t), fields, force], device=device)
     return force.numpy().astype(np.float64)
 
 

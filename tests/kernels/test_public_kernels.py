@@ -1,6 +1,6 @@
 """The public kernels of warp_sim.kernels as an API: each module's ``__all__``, a docstring line with a
 meaning and a [unit] for every argument, docs/kernels.md up to date with them, and launches on a user's
-own arrays checked against numpy."""
+own arrays (and argument blocks, warp_sim.kernels.blocks) checked against numpy."""
 import importlib
 import importlib.util
 import re
@@ -35,6 +35,7 @@ PUBLIC = {
     "guards": ["check_finite_and_bounded"],
 }
 PRIVATE = ["contacts", "detection", "emitters", "implicit", "particle_shapes", "geometry", "precisions"]
+HELPERS = {"blocks": ["of", "fill"]}   # public modules without kernels
 
 PUBLIC_KERNELS = [(topic, name) for topic, names in PUBLIC.items() for name in names]
 
@@ -54,7 +55,12 @@ def test_public_kernels_are_each_modules_all():
         module = importlib.import_module(f"warp_sim.kernels.{name}")
         assert module.__all__ == [], name
         assert "Private:" in module.__doc__, name
+    for name, names in HELPERS.items():
+        module = importlib.import_module(f"warp_sim.kernels.{name}")
+        assert module.__all__ == names, name
+        assert not any(isinstance(value, wp.Kernel) for value in vars(module).values()), name
     assert set(kernel_docs.TOPICS) == set(PUBLIC) and set(kernel_docs.PRIVATE) == set(PRIVATE)
+    assert set(kernel_docs.HELPERS) == set(HELPERS)
 
 
 def test_docs_kernels_md_is_up_to_date():
@@ -65,6 +71,32 @@ def test_docs_kernels_md_is_up_to_date():
         assert f"### {topic}.{name}" in text
     for name in PRIVATE:
         assert f"`warp_sim.kernels.{name}`" in text
+    for name in kernel_docs.block_names():
+        assert f"| `{name}` |" in text, f"block {name} is not in the page's table of blocks"
+
+
+def test_block_and_struct_arguments_are_documented_from_their_structs():
+    """A block argument's dtype lists its struct's fields and element types, and its concrete type is the block of
+    the precision; a concrete struct argument (GuardRecord) lists its own fields."""
+    from warp_sim.kernels import blocks, guards, springs
+
+    names = list(kernel_docs.block_names())
+    assert names == list(vars(blocks.of(wp.float64)))
+    assert {"Bodies", "BodyMass", "Wrench", "Springs", "Planes", "ParticleMaterial"} <= set(names)
+    argument = {a.name: a for a in kernel_docs.kernel_arguments(springs.spring_forces)}["springs"]
+    assert argument.kind == "Springs" and argument.is_block
+    assert argument.dtype() == ("`kernels.blocks` [Springs](#argument-blocks) struct of the precision: "
+                                "pairs (vec2i array), stiffness, damping, rest_length (scalar arrays)")
+    assert argument.concrete("float32") is blocks.of(wp.float32).Springs
+    assert argument.concrete("float64") is blocks.of(wp.float64).Springs
+    record = {a.name: a for a in kernel_docs.kernel_arguments(guards.check_finite_and_bounded)}["record"]
+    assert record.kind == "GuardRecord" and not record.generic
+    assert record.dtype() == "`kernels.guards` GuardRecord struct: first_step, first_key (int32 arrays)"
+    assert record.concrete("float32") is guards.GuardRecord is record.concrete("float64")
+    for name in names:   # every field of every block is named in blocks.py's docstring, with its unit
+        fields = [field for field, _, _ in kernel_docs.block_fields(name)]
+        assert fields == list(getattr(blocks.of(wp.float64), name).vars)
+        assert kernel_docs.block_docs()[name]
 
 
 @pytest.mark.parametrize("topic, name", PUBLIC_KERNELS)
@@ -83,8 +115,14 @@ def test_every_argument_has_a_docstring_line_with_a_unit(topic, name):
 
 
 def _zeros_like_type(t, count=2):
+    """A zero value of Warp type ``t``: an array of ``count`` zeros, or a struct (an argument block, GuardRecord)
+    with each field such an array of the field's dtype."""
+    from warp_sim.kernels import blocks
+
     if isinstance(t, wp.array):
         return wp.zeros(count, dtype=t.dtype, device="cpu")
+    if wp.types.type_is_struct(t):
+        return blocks.fill(t, **{name: _zeros_like_type(var.type, count) for name, var in t.vars.items()})
     return t()
 
 
@@ -112,9 +150,9 @@ def test_documented_dtypes_launch_in_both_precisions(topic, name):
 
 # launches on the user's own arrays, against numpy ---------------------------------------------------
 def test_spring_forces_on_own_arrays(device):
-    """Three particles, two springs (0-1, 1-2), float64: f2 = (-ks (L - L0) - kd (v2 - v1).d) d, f1 = -f2,
-    added to what ``force`` held; rel 1e-12 of the largest force."""
-    from warp_sim.kernels import springs
+    """Three particles, two springs (0-1, 1-2) in a float64 Springs block: f2 = (-ks (L - L0) - kd (v2 - v1).d) d,
+    f1 = -f2, added to what ``force`` held; rel 1e-12 of the largest force."""
+    from warp_sim.kernels import blocks, springs
 
     rng = np.random.default_rng(7)
     x = rng.normal(size=(3, 3))
@@ -126,11 +164,13 @@ def test_spring_forces_on_own_arrays(device):
     initial = rng.normal(size=(3, 3))
 
     force = wp.array(initial, dtype=wp.vec3d, device=device)
+    block = blocks.fill(blocks.of(wp.float64).Springs, pairs=wp.array(pairs, dtype=wp.vec2i, device=device),
+                        stiffness=wp.array(ks, dtype=wp.float64, device=device),
+                        damping=wp.array(kd, dtype=wp.float64, device=device),
+                        rest_length=wp.array(rest, dtype=wp.float64, device=device))
     wp.launch(springs.spring_forces, 2,
               inputs=[wp.array(x, dtype=wp.vec3d, device=device), wp.array(v, dtype=wp.vec3d, device=device),
-                      wp.array(pairs, dtype=wp.vec2i, device=device), wp.array(ks, dtype=wp.float64, device=device),
-                      wp.array(kd, dtype=wp.float64, device=device), wp.array(rest, dtype=wp.float64, device=device),
-                      force], device=device)
+                      block, force], device=device)
 
     expected = initial.copy()
     for s, (p1, p2) in enumerate(pairs):
@@ -219,3 +259,46 @@ def test_particle_acceleration_on_own_arrays(device, with_force):
     scale = np.abs(gravity) + (np.abs(f) + drag * (np.abs(wind) + np.abs(v))) / mass[:, None]
     assert np.all(np.abs(got[free] - expected[free]) <= 1e-13 * scale[free])
     np.testing.assert_array_equal(got[~free], 0.0)
+
+
+def _rotation(q):
+    """The rotation matrix of the unit quaternion q = (x, y, z, w)."""
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def test_body_velocities_on_own_blocks(device):
+    """rigid.body_velocities on a float64 Bodies and BodyMass block of five bodies, random unit quaternions and
+    symmetric positive definite I_body^-1: v = P inv_mass, omega = R I_body^-1 R^T L; rel 1e-12 of each
+    quantity's largest component."""
+    from warp_sim.kernels import blocks, rigid
+
+    rng = np.random.default_rng(5)
+    n = 5
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    P = rng.normal(size=(n, 3))
+    L = rng.normal(size=(n, 3))
+    inv_mass = rng.uniform(0.2, 2.0, size=n)
+    inv_inertia = np.empty((n, 3, 3))
+    for i in range(n):
+        a = rng.normal(size=(3, 3))
+        inv_inertia[i] = a @ a.T + 0.5 * np.eye(3)
+
+    B = blocks.of(wp.float64)
+    bodies = blocks.fill(B.Bodies, x=wp.array(rng.normal(size=(n, 3)), dtype=wp.vec3d, device=device),
+                         q=wp.array(q, dtype=wp.quatd, device=device), P=wp.array(P, dtype=wp.vec3d, device=device),
+                         L=wp.array(L, dtype=wp.vec3d, device=device))
+    mass = blocks.fill(B.BodyMass, inv_mass=wp.array(inv_mass, dtype=wp.float64, device=device),
+                       inv_inertia=wp.array(inv_inertia, dtype=wp.mat33d, device=device))
+    v = wp.empty(n, dtype=wp.vec3d, device=device)
+    omega = wp.empty(n, dtype=wp.vec3d, device=device)
+    wp.launch(rigid.body_velocities, n, inputs=[bodies, mass, v, omega], device=device)
+
+    expected_v = P * inv_mass[:, None]
+    expected_omega = np.array([_rotation(q[i]) @ inv_inertia[i] @ _rotation(q[i]).T @ L[i] for i in range(n)])
+    for got, expected in ((v.numpy(), expected_v), (omega.numpy(), expected_omega)):
+        scale = np.abs(expected).max()
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12 * scale)

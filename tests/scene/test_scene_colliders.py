@@ -9,8 +9,7 @@ from pxr import Gf, Usd, UsdGeom
 
 import warp_sim as ws
 from warp_sim.scene import Collider
-from warp_sim.stages import stage_layout
-from warp_sim.stages import ColliderSpec, StageLayout, StageWriter, validate_stage
+from warp_sim.stages import ColliderSpec, StageLayout, StageWriter, stage_layout, validate_stage
 
 
 def terrain(n=4, size=2.0):

@@ -6,8 +6,7 @@ import trimesh
 from pxr import Usd, UsdGeom
 
 import warp_sim as ws
-from warp_sim.stages import stage_layout
-from warp_sim.stages import MeshSpec, PointsGroup, StageLayout, StageWriter, validate_stage
+from warp_sim.stages import MeshSpec, PointsGroup, StageLayout, StageWriter, stage_layout, validate_stage
 
 N = 9
 # a 3 x 2 quad sheet on particles 2 .. 7, and a triangle + quad on particles 5 .. 8 (meshes may share particles)

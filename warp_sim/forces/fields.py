@@ -7,6 +7,7 @@ import warp as wp
 from ..core.model import Model
 from ..core.protocols import Forces, ForceTerm
 from ..core.state import State
+from ..kernels import blocks
 from ..kernels import fields as field_kernels
 from ..scene.fields import Attractor, Turbulence, Vortex
 from ..util import checks
@@ -37,24 +38,30 @@ class FieldForces(ForceTerm):
         attractors = [f for f in fields if isinstance(f, Attractor)]
         vortices = [f for f in fields if isinstance(f, Vortex)]
         turbulence = [f for f in fields if isinstance(f, Turbulence)]
+        B = model.blocks
         self.attractors = self.vortices = self.turbulence = None
         if attractors:
-            self.attractors = [array([f.position for f in attractors]), array([f.strength for f in attractors]),
-                               array([f.min_distance for f in attractors])]
+            self.attractors = blocks.fill(B.Attractors, center=array([f.position for f in attractors]),
+                                          strength=array([f.strength for f in attractors]),
+                                          min_distance=array([f.min_distance for f in attractors]))
         if vortices:
-            self.vortices = [array([f.position for f in vortices]), array([f.axis for f in vortices]),
-                             array([f.strength for f in vortices]), array([f.core_radius for f in vortices])]
+            self.vortices = blocks.fill(B.Vortices, center=array([f.position for f in vortices]),
+                                        axis=array([f.axis for f in vortices]),
+                                        strength=array([f.strength for f in vortices]),
+                                        core_radius=array([f.core_radius for f in vortices]))
         if turbulence:
-            self.turbulence = [array([f.strength for f in turbulence]), array([1.0 / f.scale for f in turbulence]),
-                               array([f.frequency for f in turbulence]),
-                               integers([f.seed for f in turbulence]), integers([f.octaves for f in turbulence])]
+            self.turbulence = blocks.fill(B.Turbulences, strength=array([f.strength for f in turbulence]),
+                                          inv_scale=array([1.0 / f.scale for f in turbulence]),
+                                          frequency=array([f.frequency for f in turbulence]),
+                                          seed=integers([f.seed for f in turbulence]),
+                                          octaves=integers([f.octaves for f in turbulence]))
 
     def apply(self, state: State, t: float, forces: Forces) -> None:
         m, k = self.model, field_kernels
         x, w, f = state.particle_x, m.particle_inv_mass, forces.particle_f
         if self.attractors is not None:
-            m.launch(k.attractor_forces, m.particle_count, [x, w, *self.attractors, f])
+            m.launch(k.attractor_forces, m.particle_count, [x, w, self.attractors, f])
         if self.vortices is not None:
-            m.launch(k.vortex_forces, m.particle_count, [x, w, *self.vortices, f])
+            m.launch(k.vortex_forces, m.particle_count, [x, w, self.vortices, f])
         if self.turbulence is not None:
-            m.launch(k.turbulence_forces, m.particle_count, [x, w, m.scalar(t), *self.turbulence, f])
+            m.launch(k.turbulence_forces, m.particle_count, [x, w, m.scalar(t), self.turbulence, f])

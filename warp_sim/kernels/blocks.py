@@ -18,6 +18,9 @@ structs of one precision (``of(wp.float64).Springs()``); each field's dtype and 
 - ContactRows (one row per contact): anchor1, anchor2 [m] (body frames), rounding1, rounding2 [m],
   normal (unit vec3), impact_time [s], after_impact [m/s], min_normal_speed [m/s], restitution [1],
   friction [1], impulse_n [N s], impulse_t [N s] (vec3), target [m/s], collision_n [N s], collision_t [N s]
+- Attractors: center [m] (vec3), strength GM [m^3/s^2], min_distance [m]
+- Vortices: center [m] (vec3), axis (unit vec3), strength [m^2/s^2], core_radius [m]
+- Turbulences: strength [m/s^2], inv_scale [1/m], frequency [1/s], seed (int32), octaves (int32)
 - ImpulseTable (warm starting, open addressing): used (int32), keys (vec2i), cells (vec3i), n [N s], t [N s]
 """
 import types
@@ -27,84 +30,40 @@ import warp as wp
 __all__ = ["of", "fill"]
 
 
-def _define(scalar, vec3, quat, mat33) -> types.SimpleNamespace:
-    @wp.struct
-    class Bodies:
-        x: wp.array(dtype=vec3)
-        q: wp.array(dtype=quat)
-        P: wp.array(dtype=vec3)
-        L: wp.array(dtype=vec3)
-
-    @wp.struct
-    class BodyMass:
-        inv_mass: wp.array(dtype=scalar)
-        inv_inertia: wp.array(dtype=mat33)
-
-    @wp.struct
-    class Wrench:
-        force: wp.array(dtype=vec3)
-        torque: wp.array(dtype=vec3)
-
-    @wp.struct
-    class Springs:
-        pairs: wp.array(dtype=wp.vec2i)
-        stiffness: wp.array(dtype=scalar)
-        damping: wp.array(dtype=scalar)
-        rest_length: wp.array(dtype=scalar)
-
-    @wp.struct
-    class Planes:
-        normal: wp.array(dtype=vec3)
-        offset: wp.array(dtype=scalar)
-        restitution: wp.array(dtype=scalar)
-        friction: wp.array(dtype=scalar)
-
-    @wp.struct
-    class ParticleMaterial:
-        inv_mass: wp.array(dtype=scalar)
-        radius: wp.array(dtype=scalar)
-        restitution: wp.array(dtype=scalar)
-        friction: wp.array(dtype=scalar)
-
-    @wp.struct
-    class BodyVelocities:
-        v: wp.array(dtype=vec3)
-        w: wp.array(dtype=vec3)
-        inv_inertia_world: wp.array(dtype=mat33)
-        impact: wp.array(dtype=scalar)
-
-    @wp.struct
-    class ContactRows:
-        anchor1: wp.array(dtype=vec3)
-        anchor2: wp.array(dtype=vec3)
-        rounding1: wp.array(dtype=scalar)
-        rounding2: wp.array(dtype=scalar)
-        normal: wp.array(dtype=vec3)
-        impact_time: wp.array(dtype=scalar)
-        after_impact: wp.array(dtype=scalar)
-        min_normal_speed: wp.array(dtype=scalar)
-        restitution: wp.array(dtype=scalar)
-        friction: wp.array(dtype=scalar)
-        impulse_n: wp.array(dtype=scalar)
-        impulse_t: wp.array(dtype=vec3)
-        target: wp.array(dtype=scalar)
-        collision_n: wp.array(dtype=scalar)
-        collision_t: wp.array(dtype=vec3)
-
-    @wp.struct
-    class ImpulseTable:
-        used: wp.array(dtype=wp.int32)
-        keys: wp.array(dtype=wp.vec2i)
-        cells: wp.array(dtype=wp.vec3i)
-        n: wp.array(dtype=scalar)
-        t: wp.array(dtype=vec3)
-
-    return types.SimpleNamespace(**{cls.__name__: cls for cls in (
-        Bodies, BodyMass, Wrench, Springs, Planes, ParticleMaterial, BodyVelocities, ContactRows, ImpulseTable)})
+#: every block's fields and their element kinds: "scalar", "vec3", "quat", "mat33" (of the precision) or a Warp type
+LAYOUTS = {
+    "Bodies": {"x": "vec3", "q": "quat", "P": "vec3", "L": "vec3"},
+    "BodyMass": {"inv_mass": "scalar", "inv_inertia": "mat33"},
+    "Wrench": {"force": "vec3", "torque": "vec3"},
+    "Springs": {"pairs": wp.vec2i, "stiffness": "scalar", "damping": "scalar", "rest_length": "scalar"},
+    "Planes": {"normal": "vec3", "offset": "scalar", "restitution": "scalar", "friction": "scalar"},
+    "ParticleMaterial": {"inv_mass": "scalar", "radius": "scalar", "restitution": "scalar", "friction": "scalar"},
+    "BodyVelocities": {"v": "vec3", "w": "vec3", "inv_inertia_world": "mat33", "impact": "scalar"},
+    "ContactRows": {"anchor1": "vec3", "anchor2": "vec3", "rounding1": "scalar", "rounding2": "scalar",
+                    "normal": "vec3", "impact_time": "scalar", "after_impact": "scalar", "min_normal_speed": "scalar",
+                    "restitution": "scalar", "friction": "scalar", "impulse_n": "scalar", "impulse_t": "vec3",
+                    "target": "scalar", "collision_n": "scalar", "collision_t": "vec3"},
+    "Attractors": {"center": "vec3", "strength": "scalar", "min_distance": "scalar"},
+    "Vortices": {"center": "vec3", "axis": "vec3", "strength": "scalar", "core_radius": "scalar"},
+    "Turbulences": {"strength": "scalar", "inv_scale": "scalar", "frequency": "scalar", "seed": wp.int32,
+                    "octaves": wp.int32},
+    "ImpulseTable": {"used": wp.int32, "keys": wp.vec2i, "cells": wp.vec3i, "n": "scalar", "t": "vec3"},
+}
 
 
-_STRUCTS = {wp.float32: _define(wp.float32, wp.vec3f, wp.quatf, wp.mat33f),
-            wp.float64: _define(wp.float64, wp.vec3d, wp.quatd, wp.mat33d)}
+def _define(kinds: dict) -> types.SimpleNamespace:
+    """The structs of LAYOUTS with the element kinds of one precision, e.g. {"scalar": wp.float64, ...}."""
+    structs = {}
+    for name, fields in LAYOUTS.items():
+        annotations = {field: wp.array(dtype=kinds.get(kind, kind)) for field, kind in fields.items()}
+        structs[name] = wp.struct(type(name, (), {"__annotations__": annotations, "__module__": __name__,
+                                                  "__qualname__": name}))
+    return types.SimpleNamespace(**structs)
+
+
+_STRUCTS = {scalar: _define({"scalar": scalar, "vec3": vec3, "quat": quat, "mat33": mat33})
+            for scalar, vec3, quat, mat33 in ((wp.float32, wp.vec3f, wp.quatf, wp.mat33f),
+                                              (wp.float64, wp.vec3d, wp.quatd, wp.mat33d))}
 
 
 def of(scalar) -> types.SimpleNamespace:

@@ -340,14 +340,20 @@ def contact_slot(pair: wp.vec2i, cell: wp.vec3i, mask: int):
     return key & mask
 
 
+@wp.func
+def first_slot(geoms: Geoms, pair: wp.vec2i, anchor1: Any, table: Any):
+    """(the contact's cell, the table's index mask, the slot its probe starts at) for a contact of ``pair``."""
+    cell = contact_cell(geoms, pair[0], anchor1)
+    mask = table.used.shape[0] - 1
+    return cell, mask, contact_slot(pair, cell, mask)
+
+
 @wp.kernel
 def remember_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows: Any, table: Any):
     """Store each contact's accumulated impulses in an open-addressing table (capacity a power of two)."""
     c = wp.tid()
     pair = ids[c]
-    cell = contact_cell(geoms, pair[0], rows.anchor1[c])
-    mask = table.used.shape[0] - 1
-    slot = contact_slot(pair, cell, mask)
+    cell, mask, slot = first_slot(geoms, pair, rows.anchor1[c], table)
     for _probe in range(table.used.shape[0]):
         if wp.atomic_cas(table.used, slot, 0, 1) == 0:
             table.keys[slot] = pair
@@ -364,9 +370,7 @@ def recall_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows: Any, tabl
     projected onto the new tangent plane."""
     c = wp.tid()
     pair = ids[c]
-    cell = contact_cell(geoms, pair[0], rows.anchor1[c])
-    mask = table.used.shape[0] - 1
-    slot = contact_slot(pair, cell, mask)
+    cell, mask, slot = first_slot(geoms, pair, rows.anchor1[c], table)
     for _probe in range(table.used.shape[0]):
         state = table.used[slot]
         if state == 0:

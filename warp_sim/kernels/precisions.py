@@ -19,8 +19,8 @@ __all__ = []
 #: generic arguments that are blocks (kernels.blocks), by argument name
 BLOCKS = {"bodies": "Bodies", "start": "Bodies", "end": "Bodies", "positions": "Bodies", "velocities": "Bodies",
           "rates": "Bodies", "mass": "BodyMass", "held": "Wrench", "accumulated": "Wrench", "springs": "Springs",
-          "planes": "Planes", "material": "ParticleMaterial", "work": "BodyVelocities", "rows": "ContactRows", "collided": "BodyVelocities",
-          "table": "ImpulseTable"}
+          "planes": "Planes", "material": "ParticleMaterial", "work": "BodyVelocities", "collided": "BodyVelocities",
+          "rows": "ContactRows", "table": "ImpulseTable"}
 
 VECTORS = {"x_start", "P_start", "L_start", "x_end", "P_end", "L_end", "anchor1", "anchor2", "normal", "impulse_t",
            "collision_t", "v", "w", "v_collided", "w_collided", "x", "P", "L", "stored_t", "body_x", "body_P",
