@@ -71,18 +71,17 @@ def colour_springs(pairs: np.ndarray, particle_count: int) -> np.ndarray:
 class StrainLimiter(Pass):
     """Provot strain limiting of the structural and shear springs of every mesh with max_stretch.
 
-    max_iterations: the most sweeps that move something per apply (integer >= 1);
-    tolerance: relative slack on the limit that ends the iteration (a spring counts as
-    over its limit when longer than (1 + max_stretch) L0 (1 + tolerance)), >= 0; None:
-    1e-6 in float64, 1e-4 in float32; relaxation: the over-relaxation factor of the
-    sweeps after the first, in [1, 2) (1: plain Gauss-Seidel). Raises ValueError for
-    these, and for a mesh's max_stretch <= 0 or springs that are not spring indices.
+    max_iterations: the most sweeps that move something per apply, an integer >= 1
+    tolerance: relative slack on the limit that ends the iteration (a spring counts as over its limit when
+        longer than (1 + max_stretch) L0 (1 + tolerance)), >= 0; None: 1e-6 in float64, 1e-4 in float32
+    relaxation: the over-relaxation factor of the sweeps after the first, in [1, 2) (1: plain Gauss-Seidel)
+    Raises ValueError for these, and for a mesh's max_stretch <= 0 or springs that are not spring indices.
 
-    After each ``apply``: ``last_iterations``, the sweeps that found and shortened an
-    over-long spring (0: nothing was over its limit); ``converged``, whether every
-    spring ended within its limit (False only when max_iterations ran out);
-    ``max_strain``, the largest L / L0 - 1 of the limited springs in the end state.
-    ``constraint_count`` springs are limited, in ``colour_count`` colours.
+    After each ``apply``:
+    last_iterations: the sweeps that found and shortened an over-long spring (0: nothing was over its limit)
+    converged: whether every spring ended within its limit (False only when max_iterations ran out)
+    max_strain: the largest L / L0 - 1 of the limited springs in the end state [1]
+    constraint_count: springs limited; colour_count: their colours
     """
 
     def __init__(self, model: Model, scene, max_iterations: int = 50, tolerance: float | None = None,

@@ -17,8 +17,13 @@ PRECISIONS = ("float32", "float64")
 
 @dataclass(frozen=True)
 class ParticleGroup:
-    """The particles one add_particles call made: global indices start .. start + count - 1.
-    pooled: the slots of an emitter's pool, of which only the live ones exist at any time."""
+    """The particles one add_particles call (or an emitter, or a cloth) made.
+
+    name: its USD prim name
+    start, count: global particle indices start .. start + count - 1
+    color: RGB in [0, 1]
+    pooled: True for the slots of an emitter's pool, of which only the live ones exist at any time
+    """
     name: str
     start: int
     count: int
@@ -28,7 +33,13 @@ class ParticleGroup:
 
 @dataclass(frozen=True)
 class Plane:
-    """The static plane normal . x = offset; bodies stay on the side the unit normal points to."""
+    """The static plane normal . x = offset; bodies stay on the side the unit normal points to.
+
+    name: its USD prim name
+    normal: unit normal, (3,)
+    offset: [m]
+    restitution, friction: its contact materials (a contact takes the mean with the other side's) [1]
+    """
     name: str
     normal: np.ndarray
     offset: float
@@ -74,12 +85,18 @@ class SurfaceMesh:
 
 @dataclass(frozen=True)
 class RigidBody:
-    """One rigid body as added: its shape, mass properties and initial state (world frame, SI).
+    """One rigid body as added: its shape, mass properties and initial state (world frame).
 
-    position: the centre of mass [m] (the shape's origin sits at position - R com);
-    orientation: unit quaternion (x, y, z, w); momentum P [kg m/s] and angular
-    momentum L [kg m^2/s]; drag [N s/m] and angular_drag [N m s/rad]; restitution
-    and friction for contacts.
+    name: its USD prim name
+    shape: the Shape; mass: its MassProperties (mass [kg], centre of mass com [m], inertia [kg m^2])
+    position: the centre of mass [m] (the shape's origin sits at position - R com)
+    orientation: unit quaternion (x, y, z, w)
+    momentum: P [kg m/s]
+    angular_momentum: L [kg m^2/s]
+    drag: [N s/m]
+    angular_drag: [N m s/rad]
+    restitution, friction: contact materials [1]
+    color: RGB in [0, 1]
     """
     name: str
     shape: Shape
@@ -97,10 +114,14 @@ class RigidBody:
 
 @dataclass(frozen=True)
 class Collider:
-    """A static collider: a shape with infinite mass that never moves (world frame, SI).
+    """A static collider: a shape with infinite mass that never moves (world frame).
 
-    position: where the shape's origin lies [m], (3,); orientation: unit quaternion
-    (x, y, z, w), (4,); restitution and friction for contacts; color RGB in 0..1 for USD.
+    name: its USD prim name
+    shape: the Shape
+    position: where the shape's origin lies [m], (3,)
+    orientation: unit quaternion (x, y, z, w), (4,)
+    restitution, friction: contact materials [1]
+    color: RGB in [0, 1]
     """
     name: str
     shape: Shape
@@ -124,11 +145,12 @@ def _shape(shape) -> Shape:
 class Scene:
     """What to simulate: particles, springs, rigid bodies, static colliders, planes, and the global forces.
 
-    gravity [m/s^2]; drag: linear drag coefficient on every particle and the
-    default for every body [N s/m], the force -drag (v - wind); angular_drag: the
-    default rotational viscosity of bodies [N m s/rad], the torque
-    -angular_drag omega; wind: the air's velocity [m/s]; precision: "float32" or
-    "float64" for the whole simulated state.
+    gravity: [m/s^2], (3,)
+    drag: linear drag coefficient on every particle and the default for every body, the force -drag (v - wind)
+        [N s/m]
+    angular_drag: the default rotational viscosity of bodies, the torque -angular_drag omega [N m s/rad]
+    wind: the air's velocity [m/s], (3,)
+    precision: "float32" or "float64" for the whole simulated state
     """
 
     def __init__(self, gravity=(0.0, -9.81, 0.0), precision: str = "float32", drag: float = 0.0,

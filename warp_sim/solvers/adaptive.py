@@ -52,14 +52,18 @@ class RK45(Integrator):
     lower it unless its error asks for that), so the next call starts where the last one left off;
     the first call tries the whole span, or ``first_step`` if given.
 
-    Options: rtol (relative tolerance, 4 machine epsilons of the precision <= rtol < 1, default
-    1e-6, which float32 allows too), atol (absolute tolerance > 0 in the state's units, m, m/s,
-    kg m/s, ..., default 1e-9), max_steps (internal trial steps allowed per call, >= 1, default 100000), first_step [s]
-    (> 0, or None). A step size below 1e-12 of the call's span, or more than max_steps trials,
-    raises AdaptiveStepFailed (a SimulationDiverged) naming the time.
+    Options (``Simulator(scene, integrator=RK45(rtol=1e-8, atol=1e-10))``):
+    rtol: relative tolerance, 4 machine epsilons of the precision <= rtol < 1 (default 1e-6, which float32
+        allows too)
+    atol: absolute tolerance in the state's units (m, m/s, kg m/s, ...), > 0 (default 1e-9)
+    max_steps: internal trial steps allowed per call, >= 1 (default 100000)
+    first_step: the first trial step [s], > 0, or None (the whole span)
+    A step size below 1e-12 of the call's span, or more than max_steps trials, raises AdaptiveStepFailed (a
+    SimulationDiverged) naming the time.
 
-    Counters, cumulative since the solver was made: ``accepted`` and ``rejected`` internal steps,
-    ``evaluations`` (derivative evaluations, the cost to compare with fixed-step solvers).
+    Counters, cumulative since the solver was made (also ``stats()``):
+    accepted, rejected: internal steps
+    evaluations: derivative evaluations, the cost to compare with fixed-step solvers
     """
 
     name, order = "rk45", 5

@@ -58,21 +58,24 @@ class ImplicitEuler(Partitioned):
     oscillator loses amplitude by 1 / sqrt(1 + h^2 w^2) per step: numerical damping).
 
     Options (``Simulator(scene, integrator=ImplicitEuler(tolerance=1e-8))``):
-    tolerance: relative residual of the conjugate gradient solve, 0 < tolerance < 1;
-    absolute_tolerance [N s] >= 0: CG stops once |b - A dv| <= max(tolerance |b|, absolute_tolerance)
-    (or below Warp's floor, eps^(9/4) of the precision); max_iterations >= 1: the cap on CG
-    iterations per step (a solve that reaches it uses its last iterate and is counted in
-    ``unconverged_solves``); preconditioner: "block_jacobi" (the inverse of each particle's
-    3x3 diagonal block, default), "diag" (Jacobi) or "none"; warm_start: start CG from the
-    last step's dv instead of 0 (on cloth it saved under 5 % of the iterations; with
-    absolute_tolerance 0 it makes a scene at rest iterate to the cap, since |b| = 0 there);
-    check_every >= 1: CG reads its residual back (a device-to-host copy) every this many
-    iterations, so ``last_iterations`` is exact with 1 and rounded up to a multiple otherwise.
+    tolerance: relative residual of the conjugate gradient solve, 0 < tolerance < 1
+    absolute_tolerance: CG stops once |b - A dv| <= max(tolerance |b|, absolute_tolerance) (or below Warp's
+        floor, eps^(9/4) of the precision) [N s], >= 0
+    max_iterations: the cap on CG iterations per step (a solve that reaches it uses its last iterate and is
+        counted in ``unconverged_solves``), >= 1
+    preconditioner: "block_jacobi" (the inverse of each particle's 3x3 diagonal block, default), "diag"
+        (Jacobi) or "none"
+    warm_start: start CG from the last step's dv instead of 0 (on cloth it saved under 5 % of the
+        iterations; with absolute_tolerance 0 it makes a scene at rest iterate to the cap, since |b| = 0 there)
+    check_every: CG reads its residual back (a device-to-host copy) every this many iterations, so
+        ``last_iterations`` is exact with 1 and rounded up to a multiple otherwise, >= 1
 
-    After each step: ``last_iterations`` (CG iterations of the last solve), ``last_residual``
-    (|b - A dv| of the last solve, CG's recursively updated residual [N s]), ``last_tolerance``
-    (the absolute threshold it was held to [N s]) and ``last_converged``;
-    ``unconverged_solves`` counts the solves that stopped at max_iterations above the threshold.
+    After each step:
+    last_iterations: CG iterations of the last solve
+    last_residual: |b - A dv| of the last solve, CG's recursively updated residual [N s]
+    last_tolerance: the absolute threshold it was held to [N s]
+    last_converged: whether the last solve reached it
+    unconverged_solves: the solves that stopped at max_iterations above the threshold
     """
 
     name, order = "implicit_euler", 1

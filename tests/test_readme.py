@@ -1,0 +1,30 @@
+"""README's self-contained python blocks (those that start with their imports) run as written, each in a fresh
+interpreter in an empty folder; the kernels block checks its kernels against numpy with its own asserts."""
+import pathlib
+import re
+import subprocess
+import sys
+
+import pytest
+
+README = pathlib.Path(__file__).resolve().parent.parent / "README.md"
+
+
+def python_blocks() -> list[str]:
+    return re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
+
+
+SELF_CONTAINED = [block for block in python_blocks() if block.lstrip().startswith(("import ", "from "))]
+
+
+def test_the_tour_and_the_kernels_block_are_self_contained():
+    assert any("spring_forces" in block for block in SELF_CONTAINED)
+    assert any("ws.Simulator" in block for block in SELF_CONTAINED)
+
+
+@pytest.mark.parametrize("block", SELF_CONTAINED, ids=lambda b: b.splitlines()[-1][:40])
+def test_readme_block_runs(block, tmp_path):
+    script = tmp_path / "block.py"
+    script.write_text(block)
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
