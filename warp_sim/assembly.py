@@ -73,7 +73,7 @@ def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: 
         RigidBodies(model, forces, control) if model.body_count else None,
     ])
     dynamics = Dynamics(model, components, force_terms, forces)
-    solver = make_integrator(integrator).bind(dynamics)
+    solver = make_integrator(integrator)
 
     strain_limiter = StrainLimiter(model, scene) if any(m.max_stretch is not None for m in scene.meshes) else None
     body_contacts = BodyContacts(model, detection, solver.position_response) if impulse and bodies_collide else None
@@ -86,5 +86,6 @@ def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: 
     if emitters is not None and emitters.touched is not None:   # kill-on-contact emitters read the contact flags
         for contact_pass in _present([impacts, particle_shapes]):
             contact_pass.touched = emitters.touched
+    solver.bind(dynamics)   # last: a solver instance stays unbound (reusable) if anything above refused the scene
     return Assembly(model, control, dynamics, solver, passes, body_contacts, particle_shapes, impacts,
                     strain_limiter, emitters)

@@ -32,7 +32,8 @@ class Simulator:
         ``ws.RK45(rtol=1e-8, atol=1e-10)`` or ``ws.ImplicitEuler(tolerance=1e-8)`` (made for this Simulator)
     device: a Warp device alias, or None for CUDA when present, else the CPU
     contact: "impulse" (time of impact, default) or "penalty" (spring and damper on penetration)
-    penalty_stiffness: the penalty contacts' spring [N/m]
+    penalty_stiffness: the penalty contacts' spring [N/m]; their damper makes a contact rebound with its
+        restitution e (kernels.penalty; e below exp(-2) = 0.135 gets critical damping and rebounds with 0.135)
     guard: check for non-finite values and speeds above max_speed after every step (read every step()
         and every frame of run())
     max_speed: the guard's speed bound [m/s]
@@ -166,36 +167,41 @@ class Simulator:
             self.guard.record(self.state, self.step_count, self.time)
 
     def frame_arrays(self) -> dict:
-        """The current state's arrays a frame holds, as numpy: particle_x [m], particle_v [m/s], body_x [m],
-        body_q (x, y, z, w) where present; with emitters also particle_alive, particle_id, particle_radius [m],
-        particle_color (RGB) and particle_opacity of every slot."""
+        """The current state's arrays a frame holds, as numpy copies (they stay as they are when the simulation
+        goes on): particle_x [m], particle_v [m/s], body_x [m], body_q (x, y, z, w) where present; with
+        emitters also particle_alive, particle_id, particle_radius [m], particle_color (RGB) and
+        particle_opacity of every slot."""
         names = [name for name, count in (("particle_x", self.model.particle_count),
                                           ("particle_v", self.model.particle_count),
                                           ("body_x", self.model.body_count), ("body_q", self.model.body_count))
                  if count]
-        arrays = {name: getattr(self.state, name).numpy() for name in names}
+        arrays = {name: np.array(getattr(self.state, name).numpy()) for name in names}
         if self.emitters is not None:
             pools = self.emitters
-            arrays.update(particle_alive=pools.alive.numpy(), particle_id=pools.ids.numpy(),
-                          particle_radius=self.model.particle_radius.numpy(), particle_color=pools.color.numpy(),
-                          particle_opacity=pools.opacity.numpy())
+            arrays.update({name: np.array(array.numpy()) for name, array in (
+                ("particle_alive", pools.alive), ("particle_id", pools.ids),
+                ("particle_radius", self.model.particle_radius), ("particle_color", pools.color),
+                ("particle_opacity", pools.opacity))})
         return arrays
 
-    def frames(self, seconds: float, fps: float = 60.0, substeps: int = 8):
+    def frames(self, seconds: float, fps: float = 60.0, substeps: int = 8, arrays: bool = True):
         """Simulate round(seconds * fps) frames of ``substeps`` steps each, yielding (frame, time, arrays).
 
         Frame k holds the state at run start + k / fps (frame 0: the state before the first step); time is
-        the simulator's time then [s]; arrays are frame_arrays(). The guards are read at every frame, so a
-        divergence raises SimulationDiverged before its frame is yielded."""
+        the simulator's time then [s]; arrays are frame_arrays() (None with arrays=False: nothing is copied
+        to the host). The guards are read at every frame, so a divergence raises SimulationDiverged before
+        its frame is yielded."""
         seconds = checks.scalar("seconds", seconds, low=0.0, low_open=True)
         fps = checks.scalar("fps", fps, low=0.0, low_open=True)
         substeps = checks.count("substeps", substeps)
         frames = int(round(seconds * fps))
         if frames < 1:
             raise checks.fail("seconds", seconds, f"covers no frame at fps={fps}; need seconds >= {0.5 / fps:g}")
-        return self._frame_loop(frames, fps, substeps)
+        if not isinstance(arrays, bool):
+            raise checks.fail("arrays", arrays, "expected True or False")
+        return self._frame_loop(frames, fps, substeps, arrays)
 
-    def _frame_loop(self, frames: int, fps: float, substeps: int):
+    def _frame_loop(self, frames: int, fps: float, substeps: int, arrays: bool):
         h = 1.0 / (fps * substeps)
         start_time = self.time
         for frame in range(frames):
@@ -204,7 +210,7 @@ class Simulator:
                     self._advance(h)
                 self.time = start_time + frame / fps
                 self.check()
-            yield frame, self.time, self.frame_arrays()
+            yield frame, self.time, self.frame_arrays() if arrays else None
         if self.emitters is not None:
             self.emitters.warn_if_skipped()
 
@@ -216,7 +222,7 @@ class Simulator:
         before the bad one and SimulationDiverged propagates; any other interruption leaves no file.
         Returns the written path (a pathlib.Path), or None without usd.
         """
-        frames = self.frames(seconds, fps, substeps)   # checks the arguments before a writer exists
+        frames = self.frames(seconds, fps, substeps, arrays=usd is not None)   # checks the arguments first
         total = int(round(float(seconds) * float(fps)))
         if chunk_frames is None:   # save often enough that unsaved samples stay below about 256 MB
             frame_bytes = 40 * self.model.particle_count + 28 * self.model.body_count + 1

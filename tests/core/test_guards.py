@@ -74,15 +74,15 @@ def test_guard_off_runs_on():
 def test_interrupted_run_leaves_no_file(tmp_path, monkeypatch):
     sim = ws.Simulator(chain_scene(), device="cpu")
     calls = {"n": 0}
-    original = sim._advance
+    original = sim.integrator.step
 
-    def interrupt(h):
+    def interrupt(*args):
         calls["n"] += 1
         if calls["n"] == 50:
             raise KeyboardInterrupt
-        original(h)
+        original(*args)
 
-    monkeypatch.setattr(sim, "_advance", interrupt)
+    monkeypatch.setattr(sim.integrator, "step", interrupt)
     path = tmp_path / "run.usdc"
     with pytest.raises(KeyboardInterrupt):
         sim.run(seconds=1.0, fps=30, substeps=4, usd=path, progress=False)

@@ -14,6 +14,8 @@ class Control:
     body_force: per body, a force held on its centre of mass [N], world frame (vec3); None without bodies
     body_torque: per body, a held torque about its centre of mass [N m], world frame (vec3); None without bodies
     held: body_force and body_torque as a kernels.blocks Wrench (None without bodies)
+
+    The arrays are captured in ``held``: change their values in place (set_body_wrench), never replace them.
     """
 
     def __init__(self, model: Model):

@@ -1,14 +1,21 @@
 """Recorded kernel launches: resolve a kernel's overload and pack its arguments once.
 
 A simulator launches the same kernels on the same arrays every step (its two
-states alternate), so each distinct (kernel, arrays) launch is recorded once with
-Warp's ``record_cmd`` and replayed, with only its scalar arguments (a step size,
-a step index) set again. On the CPU this cuts the host cost of a launch about
+states alternate), so each distinct (kernel, arrays and structs) launch is recorded once
+with Warp's ``record_cmd`` and replayed, with only its scalar arguments (a step size,
+a step index) set again. Arrays and struct arguments (kernels.blocks) are keyed by
+identity: a struct must not have its fields reassigned after its first launch (make a
+new one instead, as the growable contact buffers do). On the CPU this cuts the host cost of a launch about
 twentyfold, which is what small scenes are bound by.
 """
 from __future__ import annotations
 
 import warp as wp
+
+
+def _referenced(argument) -> bool:
+    """Whether a launch argument is passed by reference (an array, or a struct of arrays), not by value."""
+    return isinstance(argument, wp.array) or hasattr(getattr(argument, "_cls", None), "vars")
 
 
 class Launcher:
@@ -30,13 +37,13 @@ class Launcher:
         """Run ``kernel`` over ``dim`` threads with ``inputs`` (arrays and scalars)."""
         if dim == 0:
             return
-        key = (kernel, dim) + tuple(id(a) if isinstance(a, wp.array) else None for a in inputs)
+        key = (kernel, dim) + tuple(id(a) if _referenced(a) else None for a in inputs)
         entry = self._recorded.get(key)
         if entry is None:
             if len(self._recorded) >= self.capacity:
                 self._recorded.clear()
             command = wp.launch(kernel, dim=dim, inputs=inputs, device=self.device, record_cmd=True)
-            scalars = [i for i, a in enumerate(inputs) if not isinstance(a, wp.array)]
+            scalars = [i for i, a in enumerate(inputs) if not _referenced(a)]
             entry = (command, scalars, inputs)
             self._recorded[key] = entry
         else:

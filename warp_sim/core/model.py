@@ -42,7 +42,8 @@ class Model:
     plane_normal (unit), plane_offset [m], plane_restitution, plane_friction: planes normal . x = offset
     springs, planes, particle_material, body_mass: the same arrays as kernels.blocks structs (None where absent)
 
-    The one exception to "constant": an emitter pool (passes.emitters) sets the inverse mass and
+    The blocks capture the arrays: nothing may replace an array after the Model is built. The one exception
+    to "constant": an emitter pool (passes.emitters) sets the inverse mass and
     radius of its own slots at births and deaths; every other array is written once, here.
     """
 

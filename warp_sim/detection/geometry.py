@@ -65,7 +65,7 @@ class ContactGeometry:
     def __init__(self, model: Model, scene):
         device = model.device
         self.body_count = scene.body_count
-        colliders = getattr(scene, "colliders", [])
+        colliders = scene.colliders
         self.static_count = len(colliders)
         self.meshes: list[wp.Mesh] = []   # kept alive: the geoms hold their ids
         kinds, sizes, coms, mesh_ids, starts, counts, radii, bounds, e, mu = ([] for _ in range(10))

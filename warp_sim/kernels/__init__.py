@@ -12,13 +12,15 @@ Topics:
 - ``fields``: force fields on particles (point attractors, vortices, curl-noise turbulence)
 - ``emitters``: particle births into pools, ageing, deaths and attributes over life
 - ``cloth``: aerodynamic drag and lift on triangles, Provot strain limiting
+- ``blocks`` (no kernels): the argument structs many kernels share, one set per precision
 - ``implicit``: the spring Jacobians and solves of the implicit Euler step
 - ``rigid``: rigid-body rates (x, q, P, L), orientation renormalisation, impulses, derived v, omega and R
-- ``planes``: particle-plane contacts, time-of-impact impulse and penalty responses
+- ``planes``: particle-plane contacts, the time-of-impact impulse response
+- ``penalty``: penalty contacts (one damping model): particles on planes, bodies on bodies, colliders, planes
 - ``geometry``: signed distances of every shape, segment and polygon helpers (functions only)
 - ``detection``: body collision shapes on the device, hash-grid broad phase, narrow phase
-- ``contacts``: body contact response (time of impact, impulses, friction, projection), penalty
-  forces, particles pushed by shapes
+- ``contacts``: body contact response (time of impact, impulses, friction, warm starting, projection)
+- ``particle_shapes``: particles pushed by bodies and static colliders
 - ``precisions`` (no kernels): registers both precisions of a module's generic kernels at import
 - ``guards``: detection of non-finite or runaway states
 """

@@ -67,8 +67,9 @@ _STRUCTS = {scalar: _define({"scalar": scalar, "vec3": vec3, "quat": quat, "mat3
 
 
 def of(scalar) -> types.SimpleNamespace:
-    """The block structs of one precision (wp.float32 or wp.float64): Bodies, BodyMass, Wrench, Springs,
-    Planes, ParticleMaterial, BodyVelocities, ContactRows, ImpulseTable."""
+    """The block structs of one precision (wp.float32 or wp.float64), one per LAYOUTS entry: Bodies, BodyMass,
+    Wrench, Springs, Planes, ParticleMaterial, BodyVelocities, ContactRows, Attractors, Vortices, Turbulences,
+    ImpulseTable."""
     return _STRUCTS[scalar]
 
 

@@ -1,5 +1,5 @@
-"""Body contact response: time of impact, collision and contact impulses with friction, position projection,
-penalty forces, and particles pushed by shapes.
+"""Body contact response: time of impact, collision and contact impulses with friction, warm starting,
+position projection (penalty forces are in ``penalty``, particles pushed by shapes in ``particle_shapes``).
 
 The response works in the state's precision on the solver's end-of-step state, from the
 contacts ``detection`` found at the start of the step (see there for their layout).

@@ -68,10 +68,9 @@ def turbulence_acceleration(p: Any, t: Any, turbulences: Any):
 
 
 @wp.func
-def add_force(force: wp.array(dtype=Any), i: int, inv_mass: Any, acceleration: Any):
-    """force[i] += m a for a free particle (inverse mass > 0); pinned particles feel nothing."""
-    if inv_mass > type(inv_mass)(0.0):
-        force[i] = force[i] + acceleration / inv_mass
+def is_free(inv_mass: wp.array(dtype=Any), i: int):
+    """Whether particle i moves (inverse mass > 0): pinned particles and dead emitter slots feel no field."""
+    return inv_mass[i] > type(inv_mass[i])(0.0)
 
 
 @wp.kernel
@@ -89,7 +88,8 @@ def attractor_forces(x: wp.array(dtype=Any), inv_mass: wp.array(dtype=Any), attr
         force: per-particle force accumulator, added to (vec3) [N]
     """
     i = wp.tid()
-    add_force(force, i, inv_mass[i], attractor_acceleration(x[i], attractors))
+    if is_free(inv_mass, i):
+        force[i] = force[i] + attractor_acceleration(x[i], attractors) / inv_mass[i]
 
 
 @wp.kernel
@@ -106,7 +106,8 @@ def vortex_forces(x: wp.array(dtype=Any), inv_mass: wp.array(dtype=Any), vortice
         force: per-particle force accumulator, added to (vec3) [N]
     """
     i = wp.tid()
-    add_force(force, i, inv_mass[i], vortex_acceleration(x[i], vortices))
+    if is_free(inv_mass, i):
+        force[i] = force[i] + vortex_acceleration(x[i], vortices) / inv_mass[i]
 
 
 @wp.kernel
@@ -125,4 +126,5 @@ def turbulence_forces(x: wp.array(dtype=Any), inv_mass: wp.array(dtype=Any), t: 
         force: per-particle force accumulator, added to (vec3) [N]
     """
     i = wp.tid()
-    add_force(force, i, inv_mass[i], turbulence_acceleration(x[i], t, turbulences))
+    if is_free(inv_mass, i):
+        force[i] = force[i] + turbulence_acceleration(x[i], t, turbulences) / inv_mass[i]

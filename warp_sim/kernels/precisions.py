@@ -17,29 +17,25 @@ from . import blocks
 __all__ = []
 
 #: generic arguments that are blocks (kernels.blocks), by argument name
-BLOCKS = {"bodies": "Bodies", "start": "Bodies", "end": "Bodies", "positions": "Bodies", "velocities": "Bodies",
-          "rates": "Bodies", "mass": "BodyMass", "held": "Wrench", "accumulated": "Wrench", "springs": "Springs",
+BLOCKS = {"bodies": "Bodies", "start": "Bodies", "end": "Bodies", "mass": "BodyMass", "accumulated": "Wrench",
           "planes": "Planes", "material": "ParticleMaterial", "work": "BodyVelocities", "collided": "BodyVelocities",
           "rows": "ContactRows", "table": "ImpulseTable"}
 
-VECTORS = {"x_start", "P_start", "L_start", "x_end", "P_end", "L_end", "anchor1", "anchor2", "normal", "impulse_t",
-           "collision_t", "v", "w", "v_collided", "w_collided", "x", "P", "L", "stored_t", "body_x", "body_P",
-           "body_L", "body_f", "body_t", "plane_normal", "force"}
-QUATERNIONS = {"q_start", "q_end", "q", "body_q"}
-MATRICES = {"inv_inertia", "inv_inertia_world", "body_inv_inertia"}
+#: generic array arguments of vec3 elements, by name (the other generic arrays are of the scalar)
+VECTORS = {"x", "v", "force"}
 
 
 def declare_precisions(namespace: dict) -> None:
     """Register float32 and float64 overloads of every generic kernel in a module's namespace (``globals()``):
-    arguments named in BLOCKS get that block struct, array arguments named in VECTORS, QUATERNIONS or MATRICES
-    that type, other generic ones the scalar."""
-    kinds = ((wp.float32, wp.vec3f, wp.quatf, wp.mat33f), (wp.float64, wp.vec3d, wp.quatd, wp.mat33d))
+    arguments named in BLOCKS get that block struct, array arguments named in VECTORS vec3 arrays, other generic
+    ones the scalar."""
+    kinds = ((wp.float32, wp.vec3f), (wp.float64, wp.vec3d))
     for kernel in (value for value in list(namespace.values()) if isinstance(value, wp.Kernel)):
         generic = [a for a in kernel.adj.args
                    if a.type is Any or (isinstance(a.type, wp.array) and a.type.dtype is Any)]
         if not generic:
             continue
-        for scalar, vec3, quat, mat33 in kinds:
+        for scalar, vec3 in kinds:
             types = {}
             for arg in generic:
                 if arg.type is Any and arg.label in BLOCKS:
@@ -47,8 +43,6 @@ def declare_precisions(namespace: dict) -> None:
                 elif arg.type is Any:
                     types[arg.label] = scalar
                 else:
-                    dtype = vec3 if arg.label in VECTORS else quat if arg.label in QUATERNIONS else \
-                        mat33 if arg.label in MATRICES else scalar
-                    types[arg.label] = wp.array(dtype=dtype)
+                    types[arg.label] = wp.array(dtype=vec3 if arg.label in VECTORS else scalar)
             wp.overload(kernel, types)
 

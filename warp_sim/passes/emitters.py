@@ -21,7 +21,7 @@ from ..util import checks
 class EmitterPools(Pass):
     """Device bookkeeping of every emitter of a scene: pools, births, ages, deaths, statistics.
 
-    Built only for scenes with emitters. ``after_step(state, t, h)`` runs after each
+    Built only for scenes with emitters. ``apply(start, end, t, h)`` runs after each
     solver step on the new state; ``arrays`` are global-length per-particle arrays:
     alive (int32), ids (int64), color (RGB), opacity.
     """

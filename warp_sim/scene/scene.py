@@ -358,7 +358,7 @@ class Scene:
         process=False)``: vertices kept as they are, vertex i is ids[i]; see cloth.load_mesh for
         what is rejected). Its vertices [m] are turned by ``orientation`` about the mesh origin and
         moved by ``position``. The structural, shear and bend families are found by the rules in
-        warp_sim.cloth (on a triangulated quad grid they match add_cloth_grid's). mass [kg] or
+        warp_sim.scene.cloth (on a triangulated quad grid they match add_cloth_grid's). mass [kg] or
         density [kg/m^2] (not both; neither: 0.1 kg/m^2), spread by area: each triangle gives a
         third of its mass to each corner. pinned: vertex indices. Every other argument as for
         add_cloth_grid. Recorded in ``scene.meshes`` with the mesh's triangles as faces.

@@ -35,10 +35,10 @@ class Integrator:
         if self.dynamics is not None:
             raise checks.fail("integrator", self, "this solver instance is already bound to a simulator; "
                                                   "make a new one for each Simulator")
-        self.dynamics = dynamics
         self.scalar = dynamics.model.scalar
         self.launch = dynamics.model.launch
-        self.allocate(dynamics)
+        self.allocate(dynamics)        # may refuse the dynamics (ValueError): the solver stays unbound then
+        self.dynamics = dynamics
         return self
 
     def allocate(self, dynamics: Dynamics) -> None:

@@ -272,7 +272,8 @@ def _problems() -> dict:
                 _halving(32, 6), _halving(64, 4), lambda: _oscillator(KD), _oscillator_observe,
                 lambda: _oscillator_exact(2.0, KD), "|x - x_exact| / A and |v - v_exact| / (A omega)",
                 "closed form, x = A exp(-gamma t)(cos wd t + gamma / wd sin wd t). Verlet takes velocity-dependent "
-                "forces at the half-step velocity (warp_sim.integrators), which makes it first order with a damper"),
+                "forces at the half-step velocity (warp_sim.solvers.partitioned), which makes it first order with a "
+                "damper"),
         Problem("pendulum_170", "pendulum released at 170 deg: 1 kg bob on a rod of k = 1e4 N/m, L = 1 m",
                 PENDULUM_PERIOD, _halving(500, 6), _halving(300, 4), _pendulum,
                 lambda sim: particles(sim, 1.0, sqrt_gl, first=1), None, unit.format(l="L", v="sqrt(g L)"),
