@@ -3,19 +3,114 @@
 A simulator launches the same kernels on the same arrays every step (its two
 states alternate), so each distinct (kernel, arrays and structs) launch is recorded once
 with Warp's ``record_cmd`` and replayed, with only its scalar arguments (a step size,
-a step index) set again. Arrays and struct arguments (kernels.blocks) are keyed by
-identity: a struct must not have its fields reassigned after its first launch (make a
-new one instead, as the growable contact buffers do). On the CPU this cuts the host cost of a launch about
-twentyfold, which is what small scenes are bound by.
+a colour's first manifold) and its thread count set again. Arrays and struct arguments
+(kernels.blocks) are keyed by identity: a struct must not have its fields reassigned after
+its first launch (make a new one instead, as the growable contact buffers do).
+
+On the CPU a replay calls the kernel's compiled entry point with an argument struct built
+once (Warp's own ``Launch.launch`` rebuilds it on every call): about 1 us a launch instead
+of 7 here, which is what small scenes and the colour-by-colour contact solve are bound by.
+Where this Warp's internals differ from what the fast path expects, it falls back to
+``Launch.launch``.
 """
 from __future__ import annotations
+
+import ctypes
+from collections import Counter
 
 import warp as wp
 
 
+_KINDS: dict[type, bool] = {}   # argument type -> passed by reference (filled as types are seen)
+
+
 def _referenced(argument) -> bool:
     """Whether a launch argument is passed by reference (an array, or a struct of arrays), not by value."""
-    return isinstance(argument, wp.array) or hasattr(getattr(argument, "_cls", None), "vars")
+    kind = _KINDS.get(type(argument))
+    if kind is None:
+        kind = _KINDS[type(argument)] = isinstance(argument, wp.array) or hasattr(getattr(argument, "_cls", None),
+                                                                                   "vars")
+    return kind
+
+
+def _direct_entry(command):
+    """(forward entry point, argument struct, field names) to call a recorded CPU launch directly, or None."""
+    if not command.device.is_cpu or getattr(command, "block_dim", 1) > 1 or command.adjoint:
+        return None
+    try:
+        cached = command.kernel._invoke_cache.get((tuple(type(p) for p in command.params[1:]), False))
+        struct_type, fields = cached
+        arguments = struct_type()
+        names = [name for name, _ in fields]
+        for i, name in enumerate(names):
+            setattr(arguments, name, command.params[1 + i])
+        bounds = command.params[0]
+        if type(bounds).__name__ != "launch_bounds_1d_t" or bounds.coord_mult != 1:
+            return None
+        return command.hooks.forward, arguments, names
+    except (AttributeError, TypeError, ValueError):
+        return None
+
+
+class Prepared:
+    """One recorded launch, to replay with new scalars and thread counts (``Launcher.prepare``): ``set(i, value)``
+    sets input i (a scalar), ``run(dim)`` launches. A loop that launches one kernel many times (one launch
+    per colour of the contact solve) holds one and pays only for what changes."""
+
+    __slots__ = ("launcher", "command", "scalars", "inputs", "dim", "direct", "values", "simple", "bound")
+
+    def __init__(self, launcher, command, inputs, dim):
+        self.launcher, self.command, self.inputs, self.dim = launcher, command, inputs, dim
+        self.scalars = [i for i, a in enumerate(inputs) if not _referenced(a)]
+        self.values = {i: inputs[i] for i in self.scalars}   # the scalars last packed
+        self.direct = None
+        self.simple = set()   # scalar inputs whose packed field is a plain ctypes number, set without packing
+        self.bound = False
+
+    def _bind_direct(self) -> None:
+        """After the first launch: find the direct CPU entry point, if this Warp and launch allow one."""
+        self.bound = True
+        self.direct = _direct_entry(self.command)
+        if self.direct is not None:
+            fields = type(self.direct[1])._fields_
+            self.simple = {i for i in self.scalars if issubclass(fields[i][1], ctypes._SimpleCData)
+                           and type(self.inputs[i]) in (int, float)}
+
+    def set(self, i: int, value) -> None:
+        """Input i (a scalar) is ``value`` from the next run on."""
+        if value is self.values[i] or value == self.values[i]:
+            return
+        self.values[i] = value
+        if self.direct is not None and i in self.simple and type(value) in (int, float):
+            setattr(self.direct[1], self.direct[2][i], value)
+            return
+        self.command.set_param_at_index(i, value)
+        if self.direct is not None:
+            setattr(self.direct[1], self.direct[2][i], self.command.params[1 + i])
+
+    def run(self, dim: int) -> None:
+        """Launch over ``dim`` threads."""
+        if dim == 0:
+            return
+        launcher = self.launcher
+        launcher.launches += 1
+        if dim == 1:
+            launcher.single_thread[self.command.kernel.key] += 1
+        command = self.command
+        if self.direct is None:
+            if dim != self.dim:
+                command.set_dim(dim)
+                self.dim = dim
+            command.launch()
+            if not self.bound:
+                self._bind_direct()
+            return
+        bounds = command.params[0]
+        if dim != self.dim:   # a 1-D launch: its shape and size (coord_mult stays 1)
+            bounds.shape[0] = dim
+            bounds.size = dim
+            self.dim = dim
+        self.direct[0](ctypes.byref(bounds), ctypes.byref(self.direct[1]))
 
 
 class Launcher:
@@ -25,29 +120,35 @@ class Launcher:
     points at freed memory; it lives as long as the owner (one per Model). A caller
     that passes new arrays on every call would fill it: past ``capacity`` entries it
     starts afresh, so memory stays bounded (and such calls cost a normal launch).
+
+    launches: kernel launches so far; single_thread: a count per kernel name of launches with one thread
     """
 
     capacity = 512
 
     def __init__(self, device):
         self.device = device
-        self._recorded: dict[tuple, tuple] = {}
+        self._recorded: dict[tuple, Prepared] = {}
+        self.launches = 0
+        self.single_thread: Counter = Counter()
+
+    def prepare(self, kernel, dim: int, inputs: list) -> Prepared:
+        """The recorded launch of ``kernel`` on these arrays and structs (recorded now if new), its scalars set
+        to those in ``inputs``; ``run(dim)`` launches it."""
+        key = (kernel,) + tuple(id(a) if _referenced(a) else None for a in inputs)
+        prepared = self._recorded.get(key)
+        if prepared is None:
+            if len(self._recorded) >= self.capacity:
+                self._recorded.clear()
+            command = wp.launch(kernel, dim=max(dim, 1), inputs=inputs, device=self.device, record_cmd=True)
+            prepared = self._recorded[key] = Prepared(self, command, inputs, max(dim, 1))
+            return prepared
+        for i in prepared.scalars:
+            prepared.set(i, inputs[i])
+        return prepared
 
     def launch(self, kernel, dim: int, inputs: list) -> None:
         """Run ``kernel`` over ``dim`` threads with ``inputs`` (arrays and scalars)."""
         if dim == 0:
             return
-        key = (kernel, dim) + tuple(id(a) if _referenced(a) else None for a in inputs)
-        entry = self._recorded.get(key)
-        if entry is None:
-            if len(self._recorded) >= self.capacity:
-                self._recorded.clear()
-            command = wp.launch(kernel, dim=dim, inputs=inputs, device=self.device, record_cmd=True)
-            scalars = [i for i, a in enumerate(inputs) if not _referenced(a)]
-            entry = (command, scalars, inputs)
-            self._recorded[key] = entry
-        else:
-            command, scalars, _ = entry
-            for i in scalars:
-                command.set_param_at_index(i, inputs[i])
-        command.launch()
+        self.prepare(kernel, dim, inputs).run(dim)

@@ -10,7 +10,7 @@ class GrowableBuffer:
     """A growable device buffer of pairs or contacts (a kernels.detection.ContactBuffer).
 
     capacity: entries allocated; count: a device int32 the kernels fill; grows: how often it grew
-    buffer: the ContactBuffer struct (ids, and with points normal, point1 [m], point2 [m], radius1 [m], radius2 [m])
+    buffer: the ContactBuffer struct (ids, and with points normal, point1 [m], point2 [m], radius1 [m], radius2 [m], pair: the candidate pair of each contact)
     """
 
     def __init__(self, device, capacity: int, with_points: bool):
@@ -31,6 +31,7 @@ class GrowableBuffer:
         b.point2 = wp.empty(size, dtype=wp.vec3f, device=self.device)
         b.radius1 = wp.empty(size, dtype=wp.float32, device=self.device)
         b.radius2 = wp.empty(size, dtype=wp.float32, device=self.device)
+        b.pair = wp.empty(size, dtype=wp.int32, device=self.device)
         self.buffer = b
 
     def fill(self, launch) -> int:
@@ -47,4 +48,4 @@ class GrowableBuffer:
     @property
     def nbytes(self) -> int:
         b = self.buffer
-        return sum(a.capacity for a in (b.ids, b.normal, b.point1, b.point2, b.radius1, b.radius2))
+        return sum(a.capacity for a in (b.ids, b.normal, b.point1, b.point2, b.radius1, b.radius2, b.pair))

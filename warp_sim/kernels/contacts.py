@@ -12,6 +12,7 @@ from typing import Any
 import warp as wp
 
 from .detection import ContactBuffer, Geoms, is_body
+from .manifolds import ManifoldSet, manifold_rows
 from .planes import first_contact_time
 from .precisions import declare_precisions
 from .rigid import angular_velocity
@@ -67,8 +68,9 @@ def pair_material(geoms: Geoms, i: int, j: int):
 
 
 @wp.kernel
-def prepare_contacts(contacts: ContactBuffer, geoms: Geoms, start: Any, end: Any, mass: Any, h: Any,
-                     bounce_speed: Any, slop: Any, rows: Any, work: Any):
+def prepare_contacts(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), row_ids: wp.array(dtype=wp.vec2i),
+                     geoms: Geoms, start: Any, end: Any, mass: Any, h: Any, bounce_speed: Any, slop: Any, rows: Any,
+                     work: Any, impacts: wp.array(dtype=wp.int32)):
     """Per contact: anchors in the body frames (rounding1 = -radius1 and rounding2 = radius2 along n from
     them to the surfaces), the time of impact within the step, materials.
 
@@ -77,8 +79,9 @@ def prepare_contacts(contacts: ContactBuffer, geoms: Geoms, start: Any, end: Any
     earliest root is the time of impact (or the linear crossing of the start and end gaps).
     after_impact: the normal velocity the forces add after the impact, a_n (h - t) [m/s].
     start, end: the bodies at the start and end of the step (Bodies); mass: BodyMass; rows: the contacts'
-    ContactRows, written; work.impact: per body, the earliest impact (fraction of the step) among its
-    bouncing contacts.
+    ContactRows, written at row slot[c] (sorted by pair), and row_ids, the row's bodies; work.impact: per body, the earliest impact (fraction of the step) among its
+    bouncing contacts; impacts[0] counts the contacts that collide in the first collision sweep (the sweeps run only if
+    any; work must hold the end velocities, load_velocities).
     """
     c = wp.tid()
     i = contacts.ids[c][0]
@@ -116,23 +119,30 @@ def prepare_contacts(contacts: ContactBuffer, geoms: Geoms, start: Any, end: Any
             t = h * wp.clamp(gap / (gap - gap_end), zero, type(h)(1.0))
     if t < zero and gap <= slop:   # touching: impacts passed on by neighbours happen now
         t = zero
-    rows.anchor1[c] = a1
-    rows.anchor2[c] = a2
-    rows.rounding1[c] = round1
-    rows.rounding2[c] = round2
-    rows.normal[c] = n
-    rows.impact_time[c] = t
+    r = slot[c]
+    row_ids[r] = contacts.ids[c]
+    rows.anchor1[r] = a1
+    rows.anchor2[r] = a2
+    rows.rounding1[r] = round1
+    rows.rounding2[r] = round2
+    rows.normal[r] = n
+    rows.impact_time[r] = t
     # resting contact: no approach at the end of the step where it closes or touches; elsewhere (speculative)
     # the approach may close the gap but not more
     closing = zero
     if t < zero and gap > slop:
         closing = gap / h
-    rows.min_normal_speed[c] = -closing
-    rows.after_impact[c] = an * (h - t)
-    rows.restitution[c] = e
-    rows.friction[c] = mu
-    rows.impulse_n[c] = zero
-    rows.impulse_t[c] = type(n)()
+    rows.min_normal_speed[r] = -closing
+    rows.after_impact[r] = an * (h - t)
+    rows.restitution[r] = e
+    rows.friction[r] = mu
+    rows.impulse_n[r] = zero
+    rows.impulse_t[r] = type(n)()
+    if t >= zero:   # would the first collision sweep find this contact colliding?
+        pair = contacts.ids[c]
+        r1, r2 = impact_levers(pair, geoms.body_count, start, end, t / h, a1, a2, n, round1, round2)
+        if wp.dot(relative_velocity(pair, geoms.body_count, work, r1, r2), n) - an * (h - t) < -bounce_speed:
+            wp.atomic_add(impacts, 0, 1)
     if t >= zero and vn_start + an * t < -bounce_speed:
         wp.atomic_min(work.impact, i, t / h)
         if dynamic:
@@ -259,71 +269,71 @@ def accumulate(pair: wp.vec2i, body_count: int, work: Any, mass: Any, r1: Any, r
 
 
 @wp.kernel
-def collision_sweeps(count: int, sweeps: int, ids: wp.array(dtype=wp.vec2i), body_count: int, h: Any, start: Any,
-                     end: Any, rows: Any, mass: Any, work: Any, bounce_speed: Any):
-    """Collisions, pair after pair (Gauss-Seidel), repeated so that impacts propagate through touching
-    bodies (Newton's cradle). A pair whose contacts approach faster than bounce_speed at their time of
-    impact collides: each such contact must leave with -e times its approach speed u (plus what the
-    forces add after the impact), which for one contact is the lecture's impulse
-    j = -(1 + e) u / (1/M1 + 1/M2 + n . ((I1^-1 (r1 x n)) x r1) + n . ((I2^-1 (r2 x n)) x r2)), with
-    Coulomb friction up to mu j. The contacts of one pair (a box landing flat: four corners) are solved
-    together, by accumulated impulses iterated to convergence, so simultaneous contacts share the
-    impulse instead of the first one taking it all and spinning the body. A pair's contacts are
-    consecutive in the buffer (the narrow phase writes them together; where a parallel device
-    interleaves them, each run of them is solved as a group)."""
+def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, h: Any, start: Any, end: Any, rows: Any,
+                      mass: Any, work: Any, bounce_speed: Any):
+    """One sweep of collisions over one colour of manifolds, a thread each (graph-coloured Gauss-Seidel; the
+    sweeps repeat so that impacts propagate through touching bodies, as in Newton's cradle). A manifold whose
+    contacts approach faster than bounce_speed at their time of impact collides: each such contact must leave
+    with -e times its approach speed u (plus what the forces add after the impact), which for one contact is
+    the lecture's impulse j = -(1 + e) u / (1/M1 + 1/M2 + n . ((I1^-1 (r1 x n)) x r1) + n . ((I2^-1 (r2 x n))
+    x r2)), with Coulomb friction up to mu j. The contacts of one manifold (a box landing flat: four corners)
+    are solved together, by accumulated impulses iterated ``iterations`` times, so simultaneous contacts share
+    the impulse instead of the first one taking it all and spinning the body."""
+    c, last = manifold_rows(manifolds, first, wp.tid())
+    body_count = manifolds.body_count
     zero = type(bounce_speed)(0.0)
-    for _sweep in range(sweeps):
-        c = int(0)
-        while c < count:
-            pair = ids[c]
-            last = c + 1
-            while last < count and ids[last][0] == pair[0] and ids[last][1] == pair[1]:
-                last += 1
-            impacts = int(0)
+    impacts = int(0)
+    for k in range(c, last):
+        pair = manifolds.row_ids[k]
+        rows.target[k] = type(bounce_speed)(-1.0e30)
+        rows.collision_n[k] = zero
+        rows.collision_t[k] = rows.normal[k] * zero
+        if rows.impact_time[k] >= zero:
+            n = rows.normal[k]
+            r1, r2 = contact_impact_levers(pair, body_count, start, end, h, rows, k)
+            approach = wp.dot(relative_velocity(pair, body_count, work, r1, r2), n) - rows.after_impact[k]
+            if approach < -bounce_speed:
+                rows.target[k] = rows.after_impact[k] - rows.restitution[k] * approach
+                impacts += 1
+    if impacts > 0:
+        for _iteration in range(iterations):
             for k in range(c, last):
-                rows.target[k] = type(bounce_speed)(-1.0e30)
-                rows.collision_n[k] = zero
-                rows.collision_t[k] = rows.normal[k] * zero
-                if rows.impact_time[k] >= zero:
+                if rows.target[k] > type(bounce_speed)(-1.0e29):
+                    pair = manifolds.row_ids[k]
                     n = rows.normal[k]
                     r1, r2 = contact_impact_levers(pair, body_count, start, end, h, rows, k)
-                    approach = wp.dot(relative_velocity(pair, body_count, work, r1, r2), n) - rows.after_impact[k]
-                    if approach < -bounce_speed:
-                        rows.target[k] = rows.after_impact[k] - rows.restitution[k] * approach
-                        impacts += 1
-            if impacts > 0:
-                for _iteration in range(sweeps):
-                    for k in range(c, last):
-                        if rows.target[k] > type(bounce_speed)(-1.0e29):
-                            n = rows.normal[k]
-                            r1, r2 = contact_impact_levers(pair, body_count, start, end, h, rows, k)
-                            jn, jt = accumulate(pair, body_count, work, mass, r1, r2, n, rows.target[k],
-                                                rows.friction[k], rows.collision_n[k], rows.collision_t[k])
-                            rows.collision_n[k] = jn
-                            rows.collision_t[k] = jt
-            c = last
+                    jn, jt = accumulate(pair, body_count, work, mass, r1, r2, n, rows.target[k], rows.friction[k],
+                                        rows.collision_n[k], rows.collision_t[k])
+                    rows.collision_n[k] = jn
+                    rows.collision_t[k] = jt
 
 
 @wp.kernel
-def contact_sweeps(count: int, sweeps: int, ids: wp.array(dtype=wp.vec2i), body_count: int, end: Any, rows: Any,
-                   mass: Any, work: Any):
-    """Resting and sliding contact, sequential impulses (``accumulate``) toward a normal velocity of at least
-    min_normal_speed at the end of the step, starting from the impulses the same contact needed last
-    step (warm starting), so stacks converge in a few sweeps."""
-    for c in range(count):   # warm start: last step's impulses of the same contacts
-        pair = ids[c]
-        r1, r2 = contact_levers(pair, body_count, end.q, rows, c)
-        apply_pair_impulse(pair, body_count, work, mass, r1, r2,
-                           rows.normal[c] * rows.impulse_n[c] + rows.impulse_t[c])
-    for _sweep in range(sweeps):
-        for c in range(count):
-            pair = ids[c]
-            n = rows.normal[c]
-            r1, r2 = contact_levers(pair, body_count, end.q, rows, c)
-            jn, jt = accumulate(pair, body_count, work, mass, r1, r2, n, rows.min_normal_speed[c],
-                                rows.friction[c], rows.impulse_n[c], rows.impulse_t[c])
-            rows.impulse_n[c] = jn
-            rows.impulse_t[c] = jt
+def warm_start_manifolds(manifolds: ManifoldSet, first: int, end: Any, rows: Any, mass: Any, work: Any):
+    """Apply last step's impulses of the same contacts (warm starting) over one colour of manifolds."""
+    c, last = manifold_rows(manifolds, first, wp.tid())
+    for k in range(c, last):
+        pair = manifolds.row_ids[k]
+        r1, r2 = contact_levers(pair, manifolds.body_count, end.q, rows, k)
+        apply_pair_impulse(pair, manifolds.body_count, work, mass, r1, r2,
+                           rows.normal[k] * rows.impulse_n[k] + rows.impulse_t[k])
+
+
+@wp.kernel
+def solve_manifolds(manifolds: ManifoldSet, first: int, iterations: int, end: Any, rows: Any, mass: Any, work: Any):
+    """One sweep of resting and sliding contact over one colour of manifolds: sequential impulses
+    (``accumulate``) toward a normal velocity of at least min_normal_speed at the end of the step, the
+    manifold's contacts iterated ``iterations`` times together (a box's corners settle as one block, so a
+    tall stack does not lean from the order in which its corners were solved)."""
+    c, last = manifold_rows(manifolds, first, wp.tid())
+    for _iteration in range(iterations):
+        for k in range(c, last):
+            pair = manifolds.row_ids[k]
+            r1, r2 = contact_levers(pair, manifolds.body_count, end.q, rows, k)
+            jn, jt = accumulate(pair, manifolds.body_count, work, mass, r1, r2, rows.normal[k],
+                                rows.min_normal_speed[k], rows.friction[k], rows.impulse_n[k], rows.impulse_t[k])
+            rows.impulse_n[k] = jn
+            rows.impulse_t[k] = jt
 
 
 # warm starting: last step's impulses, found again by pair and anchor cell -----------------
@@ -349,10 +359,12 @@ def first_slot(geoms: Geoms, pair: wp.vec2i, anchor1: Any, table: Any):
 
 
 @wp.kernel
-def remember_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows: Any, table: Any):
-    """Store each contact's accumulated impulses in an open-addressing table (capacity a power of two)."""
-    c = wp.tid()
-    pair = ids[c]
+def remember_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows_of: wp.array(dtype=wp.int32), rows: Any,
+                      table: Any):
+    """Store each contact's accumulated impulses (contact c's row rows_of[c]) in an open-addressing table (capacity a
+    power of two)."""
+    c = rows_of[wp.tid()]
+    pair = ids[wp.tid()]
     cell, mask, slot = first_slot(geoms, pair, rows.anchor1[c], table)
     for _probe in range(table.used.shape[0]):
         if wp.atomic_cas(table.used, slot, 0, 1) == 0:
@@ -365,11 +377,12 @@ def remember_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows: Any, ta
 
 
 @wp.kernel
-def recall_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows: Any, table: Any):
-    """Start each contact from last step's impulses of the same contact (each stored entry used once), friction
-    projected onto the new tangent plane."""
-    c = wp.tid()
-    pair = ids[c]
+def recall_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows_of: wp.array(dtype=wp.int32), rows: Any,
+                    table: Any):
+    """Start each contact (contact c's row rows_of[c]) from last step's impulses of the same contact (each stored
+    entry used once), friction projected onto the new tangent plane."""
+    c = rows_of[wp.tid()]
+    pair = ids[wp.tid()]
     cell, mask, slot = first_slot(geoms, pair, rows.anchor1[c], table)
     for _probe in range(table.used.shape[0]):
         state = table.used[slot]
@@ -419,14 +432,17 @@ def finish_response(h: Any, position_response: Any, mass: Any, collided: Any, wo
 
 
 @wp.kernel
-def project_positions(count: int, sweeps: int, ids: wp.array(dtype=wp.vec2i), body_count: int, rows: Any, mass: Any,
-                      slop: Any, end: Any):
-    """Push overlapping bodies apart along the contact normals to within ``slop`` [m] of touching, positions
-    only (velocities untouched, so no energy is added), Gauss-Seidel over the contacts."""
+def project_manifolds(manifolds: ManifoldSet, first: int, iterations: int, rows: Any, mass: Any, slop: Any,
+                      relax: Any, end: Any):
+    """One sweep of the position projection over one colour of manifolds: push overlapping bodies apart along
+    the contact normals, ``relax`` of the way to within ``slop`` [m] of touching, positions only (velocities
+    untouched, so no energy is added), the manifold's contacts iterated ``iterations`` times together."""
+    c0, last = manifold_rows(manifolds, first, wp.tid())
+    body_count = manifolds.body_count
     zero = type(slop)(0.0)
-    for _sweep in range(sweeps):
-        for c in range(count):
-            pair = ids[c]
+    for _iteration in range(iterations):
+        for c in range(c0, last):
+            pair = manifolds.row_ids[c]
             i = pair[0]
             j = pair[1]
             n = rows.normal[c]
@@ -444,7 +460,7 @@ def project_positions(count: int, sweeps: int, ids: wp.array(dtype=wp.vec2i), bo
                     R2 = wp.quat_to_matrix(wp.normalize(end.q[j]))
                     inv2 = R2 * mass.inv_inertia[j] * wp.transpose(R2)
                     k += response_mass(mass.inv_mass[j], inv2, r2, n)
-                push = depth / k
+                push = relax * depth / k
                 end.x[i] = end.x[i] + n * (push * mass.inv_mass[i])
                 end.q[i] = turn(end.q[i], inv1 * wp.cross(r1, n) * push)
                 if is_body(j, body_count):

@@ -68,6 +68,7 @@ class ContactBuffer:
     point2: wp.array(dtype=wp.vec3f)
     radius1: wp.array(dtype=wp.float32)
     radius2: wp.array(dtype=wp.float32)
+    pair: wp.array(dtype=wp.int32)           # contacts: the candidate pair each came from (its manifold)
 
 
 @wp.func
@@ -76,9 +77,9 @@ def is_body(g: int, body_count: int):
 
 
 @wp.func
-def emit(buf: ContactBuffer, body_count: int, id1: int, id2: int, n: wp.vec3f, p1: wp.vec3f, r1: float,
+def emit(buf: ContactBuffer, pair: int, body_count: int, id1: int, id2: int, n: wp.vec3f, p1: wp.vec3f, r1: float,
          p2: wp.vec3f, r2: float):
-    """Append a contact pushing id1 along +n away from id2, stored with a body first."""
+    """Append a contact of candidate pair ``pair`` pushing id1 along +n away from id2, stored with a body first."""
     a = id1
     b = id2
     nn = n
@@ -102,6 +103,7 @@ def emit(buf: ContactBuffer, body_count: int, id1: int, id2: int, n: wp.vec3f, p
         buf.point2[slot] = pb
         buf.radius1[slot] = ra
         buf.radius2[slot] = rb
+        buf.pair[slot] = pair
 
 
 @wp.func
@@ -170,17 +172,17 @@ def distance_to(geoms: Geoms, g: int, p: wp.vec3f, max_dist: float):
 
 @wp.func
 def samples_against_plane(geoms: Geoms, a: int, plane: int, n: wp.vec3f, offset: float, margin: float,
-                          buf: ContactBuffer):
+                          buf: ContactBuffer, pair: int):
     r = geoms.sample_radius[a]
     for k in range(geoms.sample_count[a]):
         p = sample_world(geoms, a, k)
         gap = wp.dot(n, p) - offset - r
         if gap < margin:
-            emit(buf, geoms.body_count, a, -1 - plane, n, p, r, p - n * (gap + r), 0.0)
+            emit(buf, pair, geoms.body_count, a, -1 - plane, n, p, r, p - n * (gap + r), 0.0)
 
 
 @wp.func
-def samples_against_shape(geoms: Geoms, a: int, b: int, margin: float, buf: ContactBuffer):
+def samples_against_shape(geoms: Geoms, a: int, b: int, margin: float, buf: ContactBuffer, pair: int):
     """Sample points of a (spheres of its sample radius) against the signed distance of b."""
     r = geoms.sample_radius[a]
     for k in range(geoms.sample_count[a]):
@@ -190,11 +192,11 @@ def samples_against_shape(geoms: Geoms, a: int, b: int, margin: float, buf: Cont
             rb = float(0.0)   # a sphere's side of the contact is its centre and radius too
             if geoms.kind[b] == SPHERE:
                 rb = geoms.size[b][0]
-            emit(buf, geoms.body_count, a, b, n, p, r, p - n * (d + rb), rb)
+            emit(buf, pair, geoms.body_count, a, b, n, p, r, p - n * (d + rb), rb)
 
 
 @wp.func
-def mesh_vertices_against_shape(geoms: Geoms, m: int, a: int, margin: float, buf: ContactBuffer):
+def mesh_vertices_against_shape(geoms: Geoms, m: int, a: int, margin: float, buf: ContactBuffer, pair: int):
     """The vertices of static mesh m (world frame) near body a against a's signed distance."""
     extent = geoms.bound[a] + margin
     corner = wp.vec3f(extent, extent, extent)
@@ -210,7 +212,7 @@ def mesh_vertices_against_shape(geoms: Geoms, m: int, a: int, margin: float, buf
                 p = mesh.points[v] + geoms.x[m]
                 d, n = distance_to(geoms, a, p, extent)
                 if d < margin:
-                    emit(buf, geoms.body_count, m, a, n, p, 0.0, p - n * d, 0.0)
+                    emit(buf, pair, geoms.body_count, m, a, n, p, 0.0, p - n * d, 0.0)
 
 
 @wp.func
@@ -254,7 +256,7 @@ def clip_polygon(polygon: Polygon, count: int, normal: wp.vec3f, offset: float):
 
 
 @wp.func
-def box_face_contacts(geoms: Geoms, ref: int, inc: int, face_axis: int, margin: float, buf: ContactBuffer):
+def box_face_contacts(geoms: Geoms, ref: int, inc: int, face_axis: int, margin: float, buf: ContactBuffer, pair: int):
     """Contacts of the face of box ref normal to face_axis with the most opposed face of box inc: that
     face clipped to the sides of the reference face, each vertex with its gap along the reference normal."""
     n = box_axis(geoms, ref, face_axis)
@@ -288,11 +290,11 @@ def box_face_contacts(geoms: Geoms, ref: int, inc: int, face_axis: int, margin: 
         p = polygon[c]
         gap = wp.dot(p - centre, n)
         if gap < margin:
-            emit(buf, geoms.body_count, inc, ref, n, p, 0.0, p - n * gap, 0.0)
+            emit(buf, pair, geoms.body_count, inc, ref, n, p, 0.0, p - n * gap, 0.0)
 
 
 @wp.func
-def box_box(geoms: Geoms, a: int, b: int, margin: float, buf: ContactBuffer):
+def box_box(geoms: Geoms, a: int, b: int, margin: float, buf: ContactBuffer, pair: int):
     """Separating-axis test over the 15 axes; a face axis gives the overlap polygon, an edge pair one point.
     Face axes win unless an edge axis separates more by a relative tolerance (stable resting stacks)."""
     best = float(-1.0e30)
@@ -327,9 +329,9 @@ def box_box(geoms: Geoms, a: int, b: int, margin: float, buf: ContactBuffer):
                     edge_j = j
     if edge_i < 0:
         if best_axis < 3:
-            box_face_contacts(geoms, a, b, best_axis, margin, buf)
+            box_face_contacts(geoms, a, b, best_axis, margin, buf, pair)
         else:
-            box_face_contacts(geoms, b, a, best_axis - 3, margin, buf)
+            box_face_contacts(geoms, b, a, best_axis - 3, margin, buf, pair)
         return
     # edge against edge: the supporting edges of a and b along the axis from a to b
     L = edge_axis
@@ -347,7 +349,7 @@ def box_box(geoms: Geoms, a: int, b: int, margin: float, buf: ContactBuffer):
     da = box_axis(geoms, a, edge_i) * geoms.size[a][edge_i]
     db = box_axis(geoms, b, edge_j) * geoms.size[b][edge_j]
     pa, pb = closest_on_segments(ca - da, ca + da, cb - db, cb + db)
-    emit(buf, geoms.body_count, a, b, -L, pa, 0.0, pb, 0.0)
+    emit(buf, pair, geoms.body_count, a, b, -L, pa, 0.0, pb, 0.0)
 
 
 @wp.kernel
@@ -360,7 +362,7 @@ def narrow_phase(pairs: ContactBuffer, geoms: Geoms, margin: float, contacts: Co
     reach_a = geoms.reach[a] - geoms.bound[a]
     if b < 0:
         k = -1 - b
-        samples_against_plane(geoms, a, k, geoms.plane_normal[k], geoms.plane_offset[k], reach_a, contacts)
+        samples_against_plane(geoms, a, k, geoms.plane_normal[k], geoms.plane_offset[k], reach_a, contacts, p)
         return
     pair_margin = reach_a + geoms.reach[b] - geoms.bound[b]
     if not is_body(b, geoms.body_count):
@@ -368,17 +370,17 @@ def narrow_phase(pairs: ContactBuffer, geoms: Geoms, margin: float, contacts: Co
     ka = geoms.kind[a]
     kb = geoms.kind[b]
     if ka == BOX and kb == BOX:
-        box_box(geoms, a, b, pair_margin, contacts)
+        box_box(geoms, a, b, pair_margin, contacts, p)
     elif ka == SPHERE:
-        samples_against_shape(geoms, a, b, pair_margin, contacts)
+        samples_against_shape(geoms, a, b, pair_margin, contacts, p)
     elif kb == SPHERE:
-        samples_against_shape(geoms, b, a, pair_margin, contacts)
+        samples_against_shape(geoms, b, a, pair_margin, contacts, p)
     else:
-        samples_against_shape(geoms, a, b, pair_margin, contacts)
+        samples_against_shape(geoms, a, b, pair_margin, contacts, p)
         if kb == MESH and not is_body(b, geoms.body_count):
-            mesh_vertices_against_shape(geoms, b, a, pair_margin, contacts)
+            mesh_vertices_against_shape(geoms, b, a, pair_margin, contacts, p)
         else:
-            samples_against_shape(geoms, b, a, pair_margin, contacts)
+            samples_against_shape(geoms, b, a, pair_margin, contacts, p)
 
 
 declare_precisions(globals())

@@ -9,11 +9,17 @@ Each step (``BodyContacts.apply``, after the solver), with the detection of ``wa
    sphere centres with their radius, cylinder rims, mesh vertices) against the other
    shape's signed distance, and box-box contact polygons by separating axes; every
    contact that could close within the step is kept, so nothing tunnels;
-3. response on the solver's end-of-step state: the time of impact of each contact
-   within the step, collision impulses with restitution and Coulomb friction there
-   (Gauss-Seidel, repeated so impacts propagate through touching bodies), then
-   sequential impulses for resting and sliding contact, then a position projection
-   that removes any overlap without changing velocities (so it adds no energy).
+3. manifolds: the contacts grouped by pair and the pairs coloured so that no two of a
+   colour share a body (``detection.ContactManifolds``);
+4. response on the solver's end-of-step state, graph-coloured Gauss-Seidel: every sweep
+   is one launch per colour with one thread per manifold, which solves its contacts
+   together. The time of impact of each contact within the step, collision impulses with
+   restitution and Coulomb friction there (swept so impacts propagate through touching
+   bodies), then sequential impulses for resting and sliding contact, warm-started from
+   last step's, then a position projection that removes overlap without changing
+   velocities (so it adds no energy): partly between bodies each step (``relax``, which
+   keeps tall stacks from leaning), fully against static colliders and planes, which come
+   last in every sweep.
 
 A contact's restitution and friction are the means of the two sides' values. Restitution
 applies to impacts faster than ``bounce_speed`` (default 2 |g| h, the speed gravity gives
@@ -29,7 +35,7 @@ import warp as wp
 from ..core.model import Model
 from ..core.protocols import Pass
 from ..core.state import State
-from ..detection import Detection
+from ..detection import ContactManifolds, Detection
 from ..kernels import blocks
 from ..kernels import contacts as contact_kernels
 
@@ -42,18 +48,24 @@ class BodyContacts(Pass):
     position_response: the solver's beta (Solver.position_response): how far a velocity change moves a body
     slop: overlap the position projection leaves, so resting contacts stay found [m]
     bounce_speed: slower impacts do not bounce [m/s] (None: 2 |g| h)
-    collision_sweeps, contact_sweeps, position_sweeps: Gauss-Seidel passes of each stage
+    sweeps: Gauss-Seidel sweeps of the collision, contact and position stages (each one launch per colour)
+    iterations: how often a manifold's own contacts are iterated within one sweep, per stage
+    relax: the share of a body-body overlap the projection removes per step [1] (all of it against statics)
+    manifolds: the grouping and colouring (ContactManifolds)
     """
 
     def __init__(self, model: Model, detection: Detection, position_response: float, slop: float = 1.0e-4,
-                 bounce_speed: float | None = None, collision_sweeps: int = 8, contact_sweeps: int = 24,
-                 position_sweeps: int = 4):
+                 bounce_speed: float | None = None, sweeps: tuple[int, int, int] = (8, 24, 4),
+                 iterations: tuple[int, int, int] = (8, 4, 4), relax: float = 0.2):
         self.model = model
         self.geometry = detection.geometry
         self.detection = detection
+        self.manifolds = ContactManifolds(model, detection)
         self.slop = slop
         self.bounce_speed = bounce_speed
-        self.sweeps = (collision_sweeps, contact_sweeps, position_sweeps)
+        self.sweeps = sweeps
+        self.iterations = iterations
+        self.relax = relax
         self.position_response = position_response
         B = model.body_count
         vec3, mat33, scalar = model.vec3, model.mat33, model.scalar
@@ -84,10 +96,11 @@ class BodyContacts(Pass):
         return self.detection.count
 
     def stats(self) -> dict:
-        """Last step's pairs and contacts, buffer capacities, how often they grew, and their bytes."""
+        """Last step's pairs, contacts and colours, buffer capacities, how often they grew, and their bytes."""
         d = self.detection
         per_contact = 5 * 3 * self.model.numpy_scalar().itemsize + 5 * self.model.numpy_scalar().itemsize
-        return dict(pairs=d.pair_count, contacts=d.count, pair_capacity=d.pairs.capacity,
+        return dict(pairs=d.pair_count, contacts=d.count, colours=len(self.manifolds.colours),
+                    body_colours=self.manifolds.body_colours, pair_capacity=d.pairs.capacity,
                     contact_capacity=d.contacts.capacity, grows=d.pairs.grows + d.contacts.grows,
                     bytes=d.pairs.nbytes + d.contacts.nbytes + self._capacity * per_contact)
 
@@ -106,19 +119,47 @@ class BodyContacts(Pass):
         c = self.detection.contacts.buffer
         rows, work, table, geoms = self.rows, self.work, self.table, self.geometry.geoms
         mass = m.body_mass
+        manifolds = self.manifolds
+        manifolds.sort()
+        slot = manifolds.slot
         m.launch(contact_kernels.load_velocities, B, [end.bodies, mass, work])
-        m.launch(contact_kernels.prepare_contacts, count, [c, geoms, start.bodies, end.bodies, mass, T(h), T(bounce),
-                                                           T(self.slop), rows, work])
-        m.launch(contact_kernels.recall_impulses, count, [geoms, c.ids, rows, table])
-        collisions, contacts, positions = self.sweeps
-        m.launch(contact_kernels.collision_sweeps, 1, [count, collisions, c.ids, B, T(h), start.bodies, end.bodies,
-                                                       rows, mass, work, T(bounce)])
+        m.launch(contact_kernels.prepare_contacts, count, [c, slot, manifolds.row_ids, geoms, start.bodies,
+                                                           end.bodies, mass, T(h), T(bounce), T(self.slop), rows,
+                                                           work, manifolds.impacts])
+        m.launch(contact_kernels.recall_impulses, count, [geoms, c.ids, slot, rows, table])
+        colours, impacts = manifolds.colour()
+        (collision_sweeps, contact_sweeps, position_sweeps), (collision_iterations, contact_iterations,
+                                                              position_iterations) = self.sweeps, self.iterations
+        if impacts:
+            collide = m.launcher.prepare(contact_kernels.collide_manifolds, 1, [
+                manifolds.set, 0, collision_iterations, T(h), start.bodies, end.bodies, rows, mass, work, T(bounce)])
+            self._sweep(collide, colours, collision_sweeps)
         wp.copy(self.collided.v, work.v)
         wp.copy(self.collided.w, work.w)
-        m.launch(contact_kernels.contact_sweeps, 1, [count, contacts, c.ids, B, end.bodies, rows, mass, work])
+        self._sweep(m.launcher.prepare(contact_kernels.warm_start_manifolds, 1, [
+            manifolds.set, 0, end.bodies, rows, mass, work]), colours, 1)
+        self._sweep(m.launcher.prepare(contact_kernels.solve_manifolds, 1, [
+            manifolds.set, 0, contact_iterations, end.bodies, rows, mass, work]), colours, contact_sweeps)
         table.used.zero_()
-        m.launch(contact_kernels.remember_impulses, count, [geoms, c.ids, rows, table])
+        m.launch(contact_kernels.remember_impulses, count, [geoms, c.ids, slot, rows, table])
         m.launch(contact_kernels.finish_response, B, [T(h), T(self.position_response), mass, self.collided, work,
                                                       end.bodies])
-        m.launch(contact_kernels.project_positions, 1, [count, positions, c.ids, B, rows, mass, T(self.slop),
-                                                        end.bodies])
+        # positions: the body-body colours relaxed, the static ones in full, last
+        body_colours = manifolds.body_colours
+        project = m.launcher.prepare(contact_kernels.project_manifolds, 1, [
+            manifolds.set, 0, position_iterations, rows, mass, T(self.slop), T(self.relax), end.bodies])
+        relax, full = T(self.relax), T(1.0)
+        for _ in range(position_sweeps):
+            project.set(6, relax)
+            self._sweep(project, colours[:body_colours], 1)
+            project.set(6, full)
+            self._sweep(project, colours[body_colours:], 1)
+
+    @staticmethod
+    def _sweep(prepared, colours: list[tuple[int, int]], sweeps: int) -> None:
+        """``sweeps`` Gauss-Seidel sweeps of a prepared manifold kernel: one launch per colour, a thread per manifold
+        (input 1 of the kernel is the colour's first manifold in the order)."""
+        for _ in range(sweeps):
+            for first, size in colours:
+                prepared.set(1, first)
+                prepared.run(size)

@@ -1,0 +1,138 @@
+"""Contact manifolds and their colouring, for a Gauss-Seidel solve that runs one thread per manifold.
+
+A manifold is the contacts of one candidate pair (a box on the ground: its four corners). The
+contacts are sorted by pair (``count_pair_contacts``, a scan, ``sort_by_pair``), so manifold p
+owns rows ``offsets[p] .. offsets[p] + counts[p]``. The manifolds are then coloured so that
+no two of one colour share a body (``colour_pairs``: greedy first fit, each body's used colours
+a bit mask claimed with compare-and-swap, so threads that race for a colour never both get it).
+A static side (a collider or a plane, never moved by the solve) takes no colour, and the
+manifolds against statics are coloured apart from the body-body ones, so a solve can run them
+last. Solving one colour at a time, one thread per manifold, is exactly a sequential
+Gauss-Seidel sweep in colour order; on the CPU (threads run in order) the colouring and the
+order are deterministic.
+
+Private: every kernel here is for the simulator's own use (the body contact pass); their
+arguments may change between releases. ``__all__`` is empty.
+"""
+import warp as wp
+
+from .detection import is_body
+
+wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
+__all__ = []
+
+#: colours per class and round: bits of ``WORDS`` int32 masks per body and class
+WORDS = wp.constant(2)
+COLOURS = wp.constant(64)
+UNCOLOURED = wp.constant(-2)
+
+
+@wp.struct
+class ManifoldSet:
+    """The manifolds of a step: pair p owns rows offsets[p] .. offsets[p] + counts[p]; row_ids: each row's
+    bodies in the order its normal refers to (the narrow phase may write a pair either way round); order lists
+    the manifolds colour by colour (a colour's launch reads order[first + thread])."""
+
+    row_ids: wp.array(dtype=wp.vec2i)
+    offsets: wp.array(dtype=wp.int32)
+    counts: wp.array(dtype=wp.int32)
+    order: wp.array(dtype=wp.int32)
+    body_count: int
+
+
+@wp.func
+def manifold_rows(m: ManifoldSet, first: int, thread: int):
+    """(its first row, one past its last row) of the manifold at order[first + thread]."""
+    p = m.order[first + thread]
+    start = m.offsets[p]
+    return start, start + m.counts[p]
+
+
+@wp.kernel
+def count_pair_contacts(contact_pair: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32)):
+    """counts[p]: the contacts of candidate pair p (zeroed beforehand)."""
+    c = wp.tid()
+    wp.atomic_add(counts, contact_pair[c], 1)
+
+
+@wp.kernel
+def sort_by_pair(contact_pair: wp.array(dtype=wp.int32), offsets: wp.array(dtype=wp.int32),
+                 cursor: wp.array(dtype=wp.int32), slot: wp.array(dtype=wp.int32)):
+    """slot[c]: contact c's row, its pair's rows being offsets[p] (an exclusive scan of the counts) onward."""
+    c = wp.tid()
+    p = contact_pair[c]
+    slot[c] = offsets[p] + wp.atomic_add(cursor, p, 1)
+
+
+@wp.func
+def claim(masks: wp.array(dtype=wp.int32), word: int, bit: int):
+    """Set ``bit`` of masks[word] if it is clear; whether this call set it."""
+    old = masks[word]
+    claimed = int(0)
+    while (old & bit) == 0 and claimed == 0:
+        seen = wp.atomic_cas(masks, word, old, old | bit)
+        if seen == old:
+            claimed = 1
+        else:
+            old = seen
+    return claimed == 1
+
+
+@wp.func
+def release(masks: wp.array(dtype=wp.int32), word: int, bit: int):
+    """Clear ``bit`` of masks[word] (set by this thread)."""
+    old = masks[word]
+    done = int(0)
+    while done == 0:
+        seen = wp.atomic_cas(masks, word, old, old & ~bit)
+        if seen == old:
+            done = 1
+        else:
+            old = seen
+
+
+@wp.kernel
+def colour_pairs(ids: wp.array(dtype=wp.vec2i), counts: wp.array(dtype=wp.int32), body_count: int, round_base: int,
+                 masks: wp.array(dtype=wp.int32), colour: wp.array(dtype=wp.int32),
+                 sizes: wp.array(dtype=wp.int32), overflow: wp.array(dtype=wp.int32)):
+    """Give each uncoloured manifold p (colour[p] == UNCOLOURED; -1 for a pair without contacts) the first colour
+    free on both its bodies: body-body manifolds take colours round_base + k, manifolds against a static side
+    round_base + COLOURS + k (k < COLOURS); masks: per body and class WORDS words of used colours (zeroed per
+    round); sizes[colour]: manifolds per colour; overflow[0]: manifolds left for another round."""
+    p = wp.tid()
+    if counts[p] == 0:
+        colour[p] = -1
+        return
+    if colour[p] != UNCOLOURED:
+        return
+    i = ids[p][0]
+    j = ids[p][1]
+    dynamic = is_body(j, body_count)
+    cls = 1
+    if dynamic:
+        cls = 0
+    for k in range(COLOURS):
+        word = k // 32
+        bit = int(1) << (k % 32)
+        if claim(masks, (2 * i + cls) * WORDS + word, bit):
+            if not dynamic:
+                colour[p] = round_base + COLOURS + k
+                wp.atomic_add(sizes, colour[p], 1)
+                return
+            if claim(masks, (2 * j + cls) * WORDS + word, bit):
+                colour[p] = round_base + k
+                wp.atomic_add(sizes, colour[p], 1)
+                return
+            release(masks, (2 * i + cls) * WORDS + word, bit)
+    wp.atomic_add(overflow, 0, 1)
+
+
+@wp.kernel
+def order_by_colour(colour: wp.array(dtype=wp.int32), starts: wp.array(dtype=wp.int32),
+                    cursor: wp.array(dtype=wp.int32), order: wp.array(dtype=wp.int32)):
+    """order: the manifolds grouped by colour, colour k's from starts[k] on."""
+    p = wp.tid()
+    k = colour[p]
+    if k >= 0:
+        order[starts[k] + wp.atomic_add(cursor, k, 1)] = p
