@@ -58,7 +58,7 @@ class ContactGeometry:
         points [m], bounds [m], restitution, friction, poses)
     meshes: the wp.Mesh objects the geoms refer to (kept alive here)
     body_count, static_count: how many bodies and colliders
-    max_reach: the largest distance a body moves over the step plus its bound [m], set by detection
+    max_reach: [the largest reach (bound + travel + margin), the largest travel over the step] [m], set by detection
     body_bound: the largest bounding radius of a body [m]
     """
 
@@ -151,7 +151,7 @@ class ContactGeometry:
         g.plane_friction = array([p.friction for p in planes], wp.float32)
         g.body_count = self.body_count
         self.geoms = g
-        self.max_reach = wp.zeros(1, dtype=wp.float32, device=device)
+        self.max_reach = wp.zeros(2, dtype=wp.float32, device=device)
         self.body_bound = max((b.shape.bounding_radius for b in scene.bodies), default=0.0)
 
 

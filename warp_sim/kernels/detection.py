@@ -117,7 +117,7 @@ def emit_pair(buf: ContactBuffer, a: int, b: int):
 @wp.kernel
 def gather_poses(start: Any, end: Any, margin: float, geoms: Geoms, max_reach: wp.array(dtype=wp.float32)):
     """Copy each body's start pose (start: Bodies) into the geoms and bound how far its surface can move over the
-    step to its end pose (end: Bodies)."""
+    step to its end pose (end: Bodies); max_reach: [the largest reach, the largest travel]."""
     i = wp.tid()
     x = wp.vec3f(start.x[i])
     q = wp.quatf(start.q[i])
@@ -130,15 +130,19 @@ def gather_poses(start: Any, end: Any, margin: float, geoms: Geoms, max_reach: w
     reach = geoms.bound[i] + travel + margin
     geoms.reach[i] = reach
     wp.atomic_max(max_reach, 0, reach)
+    wp.atomic_max(max_reach, 1, travel)
 
 
 @wp.kernel
 def find_pairs(geoms: Geoms, grid: wp.uint64, static_count: int, max_reach: wp.array(dtype=wp.float32),
                pairs: ContactBuffer):
-    """Candidate pairs of body i: bodies j > i near it in the hash grid, static colliders and planes it may reach."""
+    """Candidate pairs of body i: bodies j > i near it in the hash grid, static colliders and planes it may reach.
+    Against statics the reach is grown by the largest travel of any body: the response can pass a neighbour's
+    speed on to body i (a pile landing pushes its lowest layer down), and the ground must see that coming."""
     i = wp.tid()
     x = geoms.x[i]
     reach = geoms.reach[i]
+    static_reach = reach + max_reach[1]
     query = wp.hash_grid_query(grid, x, reach + max_reach[0])
     j = int(0)
     while wp.hash_grid_query_next(query, j):
@@ -146,10 +150,10 @@ def find_pairs(geoms: Geoms, grid: wp.uint64, static_count: int, max_reach: wp.a
             emit_pair(pairs, i, j)
     for s in range(static_count):
         g = geoms.body_count + s
-        if wp.length(geoms.x[g] - x) <= reach + geoms.bound[g]:
+        if wp.length(geoms.x[g] - x) <= static_reach + geoms.bound[g]:
             emit_pair(pairs, i, g)
     for k in range(geoms.plane_normal.shape[0]):
-        if wp.dot(geoms.plane_normal[k], x) - geoms.plane_offset[k] <= reach:
+        if wp.dot(geoms.plane_normal[k], x) - geoms.plane_offset[k] <= static_reach:
             emit_pair(pairs, i, -1 - k)
 
 
@@ -353,20 +357,22 @@ def box_box(geoms: Geoms, a: int, b: int, margin: float, buf: ContactBuffer, pai
 
 
 @wp.kernel
-def narrow_phase(pairs: ContactBuffer, geoms: Geoms, margin: float, contacts: ContactBuffer):
+def narrow_phase(pairs: ContactBuffer, geoms: Geoms, max_reach: wp.array(dtype=wp.float32), contacts: ContactBuffer):
     """Contacts of candidate pair p at the start of the step, for gaps below the pair's margin (the contact
-    margin plus how far the bodies can move over the step, so nothing passes through in one step)."""
+    margin plus how far the bodies can move over the step, so nothing passes through in one step; against a
+    static, plus the largest travel of any body, as in find_pairs)."""
     p = wp.tid()
     a = pairs.ids[p][0]
     b = pairs.ids[p][1]
     reach_a = geoms.reach[a] - geoms.bound[a]
     if b < 0:
         k = -1 - b
-        samples_against_plane(geoms, a, k, geoms.plane_normal[k], geoms.plane_offset[k], reach_a, contacts, p)
+        samples_against_plane(geoms, a, k, geoms.plane_normal[k], geoms.plane_offset[k], reach_a + max_reach[1],
+                              contacts, p)
         return
     pair_margin = reach_a + geoms.reach[b] - geoms.bound[b]
     if not is_body(b, geoms.body_count):
-        pair_margin = reach_a
+        pair_margin = reach_a + max_reach[1]
     ka = geoms.kind[a]
     kb = geoms.kind[b]
     if ka == BOX and kb == BOX:
