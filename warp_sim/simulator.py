@@ -1,6 +1,8 @@
 """Simulator: the loop. Each step: the solver, then the passes in order, then the guard; frames() and run()."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import warp as wp
 from tqdm.auto import tqdm
@@ -152,17 +154,29 @@ class Simulator:
         """Per emitter: name, capacity, live, born, and skipped (births that found its pool full)."""
         return self.emitters.stats() if self.emitters is not None else []
 
+    def substeps(self, h: float) -> int:
+        """How many equal sub-steps a step of h seconds takes: enough that none is longer than any pass's
+        max_step (a pile or stack at frame rate: the body contacts' 1/120 s by default), else 1."""
+        limits = [p.max_step for p in self.passes if p.max_step is not None]
+        return max([1] + [math.ceil(h / limit * (1.0 - 1e-12)) for limit in limits])
+
     def _advance(self, h: float) -> None:
-        """One step of h seconds: the solver from state into the spare state, the passes on it, the swap, the guard."""
-        for step_pass in self.passes:
-            step_pass.check_step(h)
-        start, end = self.state, self._next
-        self.integrator.step(start, end, self.time, h)
-        for step_pass in self.passes:
-            step_pass.apply(start, end, self.time, h)
-        self.state, self._next = end, start
+        """One step of h seconds (in ``substeps(h)`` equal pieces): per piece the solver from state into the spare
+        state, the passes on it and the swap; then the guard."""
+        pieces = self.substeps(h)
+        piece = h / pieces
+        start_time = self.time
+        for k in range(pieces):
+            for step_pass in self.passes:
+                step_pass.check_step(piece)
+            start, end = self.state, self._next
+            self.integrator.step(start, end, self.time, piece)
+            for step_pass in self.passes:
+                step_pass.apply(start, end, self.time, piece)
+            self.state, self._next = end, start
+            self.time = start_time + piece * (k + 1)
+        self.time = start_time + h
         self.step_count += 1
-        self.time += h
         if self.guard is not None:
             self.guard.record(self.state, self.step_count, self.time)
 

@@ -73,7 +73,11 @@ class Pass:
 
     start: the state at t; end: the solver's state at t + h; h: the step [s].
     ``check_step(h)`` runs before the step and may refuse it (ValueError).
+    max_step: the longest step the pass is accurate at [s] (None: any); the simulator splits a longer step
+    into equal sub-steps, solver and passes each, inside ``step()``
     """
+
+    max_step: float | None = None
 
     def check_step(self, h: float) -> None:
         """Refuse a step of h seconds this pass cannot handle (ValueError); by default accept any."""

@@ -17,7 +17,10 @@ structs of one precision (``of(wp.float64).Springs()``); each field's dtype and 
   [1/(kg m^2)] (mat33), impact: the earliest impact of each body as a fraction of the step [1]
 - ContactRows (one row per contact): anchor1, anchor2 [m] (body frames), rounding1, rounding2 [m],
   normal (unit vec3), impact_time [s], after_impact [m/s], min_normal_speed [m/s], restitution [1],
-  friction [1], impulse_n [N s], impulse_t [N s] (vec3), target [m/s], collision_n [N s], collision_t [N s]
+  friction [1], impulse_n [N s], impulse_t [N s] (vec3), target [m/s], collision_n [N s], collision_t [N s],
+  and for the resting solve, fixed over it: lever1, lever2 [m] (world offsets from the centres to the contact at
+  the end poses), tangent1, tangent2 (unit vec3, tangent1 along the slide), mass_n, mass_t1, mass_t2 [kg]
+  (effective masses along n and the tangents)
 - Attractors: center [m] (vec3), strength GM [m^3/s^2], min_distance [m]
 - Vortices: center [m] (vec3), axis (unit vec3), strength [m^2/s^2], core_radius [m]
 - Turbulences: strength [m/s^2], inv_scale [1/m], frequency [1/s], seed (int32), octaves (int32)
@@ -42,7 +45,9 @@ LAYOUTS = {
     "ContactRows": {"anchor1": "vec3", "anchor2": "vec3", "rounding1": "scalar", "rounding2": "scalar",
                     "normal": "vec3", "impact_time": "scalar", "after_impact": "scalar", "min_normal_speed": "scalar",
                     "restitution": "scalar", "friction": "scalar", "impulse_n": "scalar", "impulse_t": "vec3",
-                    "target": "scalar", "collision_n": "scalar", "collision_t": "vec3"},
+                    "target": "scalar", "collision_n": "scalar", "collision_t": "vec3", "lever1": "vec3",
+                    "lever2": "vec3", "tangent1": "vec3", "tangent2": "vec3", "mass_n": "scalar", "mass_t1": "scalar",
+                    "mass_t2": "scalar"},
     "Attractors": {"center": "vec3", "strength": "scalar", "min_distance": "scalar"},
     "Vortices": {"center": "vec3", "axis": "vec3", "strength": "scalar", "core_radius": "scalar"},
     "Turbulences": {"strength": "scalar", "inv_scale": "scalar", "frequency": "scalar", "seed": wp.int32,

@@ -309,31 +309,95 @@ def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, h: An
 
 
 @wp.kernel
-def warm_start_manifolds(manifolds: ManifoldSet, first: int, end: Any, rows: Any, mass: Any, work: Any):
-    """Apply last step's impulses of the same contacts (warm starting) over one colour of manifolds."""
-    c, last = manifold_rows(manifolds, first, wp.tid())
-    for k in range(c, last):
-        pair = manifolds.row_ids[k]
-        r1, r2 = contact_levers(pair, manifolds.body_count, end.q, rows, k)
-        apply_pair_impulse(pair, manifolds.body_count, work, mass, r1, r2,
-                           rows.normal[k] * rows.impulse_n[k] + rows.impulse_t[k])
+def prepare_rows(count: int, row_ids: wp.array(dtype=wp.vec2i), body_count: int, end: Any, rows: Any, mass: Any,
+                 work: Any):
+    """Per row, what the resting solve keeps fixed: the levers at the end poses, a tangent basis (tangent1 along
+    the sliding velocity, if any), and the effective masses along n and the tangents (Box2D's contact points)."""
+    k = wp.tid()
+    if k >= count:
+        return
+    pair = row_ids[k]
+    r1, r2 = contact_levers(pair, body_count, end.q, rows, k)
+    n = rows.normal[k]
+    rel = relative_velocity(pair, body_count, work, r1, r2)
+    slide = rel - n * wp.dot(rel, n)
+    t1 = wp.cross(n, type(n)(type(rel[0])(1.0), type(rel[0])(0.0), type(rel[0])(0.0)))
+    if wp.abs(n[0]) > type(rel[0])(0.5):
+        t1 = wp.cross(n, type(n)(type(rel[0])(0.0), type(rel[0])(1.0), type(rel[0])(0.0)))
+    if wp.length(slide) > type(rel[0])(1.0e-9):
+        t1 = slide
+    t1 = wp.normalize(t1)
+    t2 = wp.cross(n, t1)
+    one = type(rel[0])(1.0)
+    rows.lever1[k] = r1
+    rows.lever2[k] = r2
+    rows.tangent1[k] = t1
+    rows.tangent2[k] = t2
+    rows.mass_n[k] = one / pair_mass(pair, body_count, work, mass, r1, r2, n)
+    rows.mass_t1[k] = one / pair_mass(pair, body_count, work, mass, r1, r2, t1)
+    rows.mass_t2[k] = one / pair_mass(pair, body_count, work, mass, r1, r2, t2)
 
 
 @wp.kernel
-def solve_manifolds(manifolds: ManifoldSet, first: int, iterations: int, end: Any, rows: Any, mass: Any, work: Any):
-    """One sweep of resting and sliding contact over one colour of manifolds: sequential impulses
-    (``accumulate``) toward a normal velocity of at least min_normal_speed at the end of the step, the
-    manifold's contacts iterated ``iterations`` times together (a box's corners settle as one block, so a
-    tall stack does not lean from the order in which its corners were solved)."""
+def warm_start_manifolds(manifolds: ManifoldSet, first: int, rows: Any, mass: Any, work: Any):
+    """Apply last step's impulses of the same contacts (warm starting) over one colour of manifolds."""
     c, last = manifold_rows(manifolds, first, wp.tid())
-    for _iteration in range(iterations):
+    for k in range(c, last):
+        apply_pair_impulse(manifolds.row_ids[k], manifolds.body_count, work, mass, rows.lever1[k], rows.lever2[k],
+                           rows.normal[k] * rows.impulse_n[k] + rows.impulse_t[k])
+
+
+@wp.func
+def solve_row(pair: wp.vec2i, body_count: int, rows: Any, mass: Any, work: Any, k: int):
+    """One sequential-impulse update of row k with its fixed levers and masses: the accumulated normal impulse
+    [N s] toward the one that leaves normal velocity min_normal_speed, kept >= 0; then the accumulated
+    friction impulse toward the one that stops sliding along both tangents, kept in the Coulomb disc
+    |Jt| <= mu Jn. Returns the largest velocity change [m/s] the update made at the contact (normal or
+    tangential)."""
+    r1 = rows.lever1[k]
+    r2 = rows.lever2[k]
+    n = rows.normal[k]
+    old_n = rows.impulse_n[k]
+    zero = old_n * type(old_n)(0.0)
+    rel = relative_velocity(pair, body_count, work, r1, r2)
+    total = wp.max(old_n + (rows.min_normal_speed[k] - wp.dot(rel, n)) * rows.mass_n[k], zero)
+    change = wp.abs(total - old_n) / rows.mass_n[k]
+    if total > zero or old_n > zero:
+        apply_pair_impulse(pair, body_count, work, mass, r1, r2, n * (total - old_n))
+        rel = relative_velocity(pair, body_count, work, r1, r2)
+        t1 = rows.tangent1[k]
+        t2 = rows.tangent2[k]
+        old_t = rows.impulse_t[k]
+        Jt = old_t - t1 * (wp.dot(rel, t1) * rows.mass_t1[k]) - t2 * (wp.dot(rel, t2) * rows.mass_t2[k])
+        limit = rows.friction[k] * total
+        length = wp.length(Jt)
+        if length > limit:
+            Jt = Jt * (limit / length)
+        apply_pair_impulse(pair, body_count, work, mass, r1, r2, Jt - old_t)
+        rows.impulse_t[k] = Jt
+        change = wp.max(change, wp.length(Jt - old_t) / rows.mass_t1[k])
+    rows.impulse_n[k] = total
+    return change
+
+
+@wp.kernel
+def solve_manifolds(manifolds: ManifoldSet, first: int, iterations: int, tolerance: Any, rows: Any, mass: Any,
+                    work: Any, residual: wp.array(dtype=Any)):
+    """One sweep of resting and sliding contact over one colour of manifolds: sequential impulses
+    (``solve_row``) toward a normal velocity of at least min_normal_speed at the end of the step, the
+    manifold's contacts iterated together (a box's corners settle as one block, so a tall stack does not lean
+    from the order in which its corners were solved), up to ``iterations`` times and until no update changes
+    a contact's velocity by more than ``tolerance`` [m/s]. residual[0]: raised to the largest change of the
+    manifold's first iteration (how far from converged this sweep found it) [m/s]."""
+    c, last = manifold_rows(manifolds, first, wp.tid())
+    for iteration in range(iterations):
+        change = type(tolerance)(0.0)
         for k in range(c, last):
-            pair = manifolds.row_ids[k]
-            r1, r2 = contact_levers(pair, manifolds.body_count, end.q, rows, k)
-            jn, jt = accumulate(pair, manifolds.body_count, work, mass, r1, r2, rows.normal[k],
-                                rows.min_normal_speed[k], rows.friction[k], rows.impulse_n[k], rows.impulse_t[k])
-            rows.impulse_n[k] = jn
-            rows.impulse_t[k] = jt
+            change = wp.max(change, solve_row(manifolds.row_ids[k], manifolds.body_count, rows, mass, work, k))
+        if iteration == 0:
+            wp.atomic_max(residual, 0, change)
+        if change <= tolerance:
+            break
 
 
 # warm starting: last step's impulses, found again by pair and anchor cell -----------------
@@ -436,11 +500,13 @@ def project_manifolds(manifolds: ManifoldSet, first: int, iterations: int, rows:
                       relax: Any, end: Any):
     """One sweep of the position projection over one colour of manifolds: push overlapping bodies apart along
     the contact normals, ``relax`` of the way to within ``slop`` [m] of touching, positions only (velocities
-    untouched, so no energy is added), the manifold's contacts iterated ``iterations`` times together."""
+    untouched, so no energy is added), the manifold's contacts iterated together up to ``iterations`` times,
+    until none is deeper than ``slop``."""
     c0, last = manifold_rows(manifolds, first, wp.tid())
     body_count = manifolds.body_count
     zero = type(slop)(0.0)
     for _iteration in range(iterations):
+        deepest = zero
         for c in range(c0, last):
             pair = manifolds.row_ids[c]
             i = pair[0]
@@ -452,6 +518,7 @@ def project_manifolds(manifolds: ManifoldSet, first: int, iterations: int, rows:
                 p2 = end.x[j] + r2
             depth = -wp.dot(n, end.x[i] + r1 - p2) - slop
             if depth > zero:
+                deepest = wp.max(deepest, depth)
                 R1 = wp.quat_to_matrix(wp.normalize(end.q[i]))
                 inv1 = R1 * mass.inv_inertia[i] * wp.transpose(R1)
                 k = response_mass(mass.inv_mass[i], inv1, r1, n)
@@ -466,6 +533,8 @@ def project_manifolds(manifolds: ManifoldSet, first: int, iterations: int, rows:
                 if is_body(j, body_count):
                     end.x[j] = end.x[j] - n * (push * mass.inv_mass[j])
                     end.q[j] = turn(end.q[j], -(inv2 * wp.cross(r2, n)) * push)
+        if deepest == zero:
+            break
 
 
 declare_precisions(globals())

@@ -50,13 +50,17 @@ class BodyContacts(Pass):
     bounce_speed: slower impacts do not bounce [m/s] (None: 2 |g| h)
     sweeps: Gauss-Seidel sweeps of the collision, contact and position stages (each one launch per colour)
     iterations: how often a manifold's own contacts are iterated within one sweep, per stage
+    tolerance: a manifold's resting iterations stop once no update changes a contact velocity by more [m/s]
     relax: the share of a body-body overlap the projection removes per step [1] (all of it against statics)
     manifolds: the grouping and colouring (ContactManifolds)
+    max_step: the longest step the response holds stacks and piles at [s]: sim.step(1/60) takes two sub-steps
+        of 1/120 s (see Pass.max_step; None: no sub-steps)
     """
 
     def __init__(self, model: Model, detection: Detection, position_response: float, slop: float = 1.0e-4,
-                 bounce_speed: float | None = None, sweeps: tuple[int, int, int] = (8, 24, 4),
-                 iterations: tuple[int, int, int] = (8, 4, 4), relax: float = 0.2):
+                 bounce_speed: float | None = None, sweeps: tuple[int, int, int] = (8, 16, 4),
+                 iterations: tuple[int, int, int] = (8, 2, 4), relax: float = 0.2, tolerance: float = 1.0e-4,
+                 max_step: float | None = 1.0 / 120.0):
         self.model = model
         self.geometry = detection.geometry
         self.detection = detection
@@ -66,6 +70,9 @@ class BodyContacts(Pass):
         self.sweeps = sweeps
         self.iterations = iterations
         self.relax = relax
+        self.tolerance = tolerance
+        self.max_step = max_step
+        self.residual = model.zeros(1)   # the resting solve's largest change in its sweeps [m/s]
         self.position_response = position_response
         B = model.body_count
         vec3, mat33, scalar = model.vec3, model.mat33, model.scalar
@@ -136,10 +143,12 @@ class BodyContacts(Pass):
             self._sweep(collide, colours, collision_sweeps)
         wp.copy(self.collided.v, work.v)
         wp.copy(self.collided.w, work.w)
+        m.launch(contact_kernels.prepare_rows, count, [count, manifolds.row_ids, B, end.bodies, rows, mass, work])
         self._sweep(m.launcher.prepare(contact_kernels.warm_start_manifolds, 1, [
-            manifolds.set, 0, end.bodies, rows, mass, work]), colours, 1)
-        self._sweep(m.launcher.prepare(contact_kernels.solve_manifolds, 1, [
-            manifolds.set, 0, contact_iterations, end.bodies, rows, mass, work]), colours, contact_sweeps)
+            manifolds.set, 0, rows, mass, work]), colours, 1)
+        solve = m.launcher.prepare(contact_kernels.solve_manifolds, 1, [
+            manifolds.set, 0, contact_iterations, T(self.tolerance), rows, mass, work, self.residual])
+        self._sweep(solve, colours, contact_sweeps)
         table.used.zero_()
         m.launch(contact_kernels.remember_impulses, count, [geoms, c.ids, slot, rows, table])
         m.launch(contact_kernels.finish_response, B, [T(h), T(self.position_response), mass, self.collided, work,
