@@ -46,7 +46,7 @@ def _present(parts):
 
 
 def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: float, contact_margin: float,
-             collisions: bool) -> Assembly:
+             collisions: bool, contact_step: float | None = None) -> Assembly:
     """Build every part ``scene`` needs on ``device`` (arguments as Simulator's, checked there)."""
     model = Model(scene, device)
     control = Control(model)
@@ -76,7 +76,8 @@ def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: 
     solver = make_integrator(integrator)
 
     strain_limiter = StrainLimiter(model, scene) if any(m.max_stretch is not None for m in scene.meshes) else None
-    body_contacts = BodyContacts(model, detection, solver.position_response) if impulse and bodies_collide else None
+    body_contacts = (BodyContacts(model, detection, solver.position_response, max_step=contact_step)
+                     if impulse and bodies_collide else None)
     particle_shapes = ParticleShapeContacts(model, geometry, detection) if particles_meet_shapes else None
     impacts = PlaneImpacts(model) if impulse and particle_planes else None
     projection = ComponentProjection(dynamics) if model.body_count else None

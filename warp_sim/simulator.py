@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import warp as wp
@@ -42,6 +43,9 @@ class Simulator:
     contact_margin: the gap at which bodies count as touching [m]
     collisions: False leaves contacts with bodies and colliders out (bodies pass through each other, colliders
         and planes, particles through bodies and colliders; particles still meet planes)
+    contact_step: the longest step the impulse response between bodies takes [s]: a longer ``step(dt)`` is
+        split into equal sub-steps inside step() (sim.step(1/60) takes two of 1/120 s), which is what holds
+        stacks and landing piles at frame rate; None never splits (``sim.substeps(dt)`` says how many)
 
     With "rk45" each ``step(dt)`` lands exactly on t + dt, taking as many internal steps as the tolerance
     needs (``sim.integrator.stats()`` counts them), so ``run(..., substeps=1)`` is the natural choice.
@@ -54,7 +58,7 @@ class Simulator:
 
     def __init__(self, scene: Scene, integrator="rk4", device: str | None = None, contact: str = "impulse",
                  penalty_stiffness: float = 1.0e4, guard: bool = True, max_speed: float = 1.0e4,
-                 contact_margin: float = 0.005, collisions: bool = True):
+                 contact_margin: float = 0.005, collisions: bool = True, contact_step: float | None = 1.0 / 120.0):
         if not isinstance(scene, Scene):
             raise checks.fail("scene", scene, "expected a warp_sim.Scene")
         if scene.particle_count == 0 and scene.body_count == 0:
@@ -67,7 +71,10 @@ class Simulator:
             raise checks.fail("collisions", collisions, "expected True or False")
         if not isinstance(guard, bool):
             raise checks.fail("guard", guard, "expected True or False")
-        parts = assemble(scene, resolve_device(device), integrator, contact, stiffness, margin, collisions)
+        if contact_step is not None:
+            contact_step = checks.scalar("contact_step", contact_step, low=0.0, low_open=True)
+        parts = assemble(scene, resolve_device(device), integrator, contact, stiffness, margin, collisions,
+                         contact_step)
         self.scene = scene
         self.model = parts.model
         self.control = parts.control
@@ -144,6 +151,7 @@ class Simulator:
         for _ in range(checks.count("steps", steps)):
             self._advance(h)
         self.check()
+        self._warn_solver()
 
     def check(self) -> None:
         """Raise SimulationDiverged if any step so far went non-finite or too fast."""
@@ -227,6 +235,13 @@ class Simulator:
             yield frame, self.time, self.frame_arrays() if arrays else None
         if self.emitters is not None:
             self.emitters.warn_if_skipped()
+        self._warn_solver()
+
+    def _warn_solver(self) -> None:
+        """Issue the solver's pending warning (unconverged solves since the last one), if any."""
+        message = self.integrator.pending_warning()
+        if message is not None:
+            warnings.warn(message, RuntimeWarning, stacklevel=3)
 
     def run(self, seconds: float, fps: float = 60.0, substeps: int = 8, usd=None, progress: bool = True,
             chunk_frames: int | None = None):

@@ -20,7 +20,6 @@ from collections import Counter
 
 import warp as wp
 
-
 _KINDS: dict[type, bool] = {}   # argument type -> passed by reference (filled as types are seen)
 
 
@@ -96,6 +95,8 @@ class Prepared:
         launcher.launches += 1
         if dim == 1:
             launcher.single_thread[self.command.kernel.key] += 1
+        if launcher.log is not None:
+            launcher.log.append((self.command.kernel.key, dim))
         command = self.command
         if self.direct is None:
             if dim != self.dim:
@@ -121,7 +122,8 @@ class Launcher:
     that passes new arrays on every call would fill it: past ``capacity`` entries it
     starts afresh, so memory stays bounded (and such calls cost a normal launch).
 
-    launches: kernel launches so far; single_thread: a count per kernel name of launches with one thread
+    launches: kernel launches so far; single_thread: a count per kernel name of launches with one thread;
+    log: None, or a list each launch appends (kernel name, threads) to
     """
 
     capacity = 512
@@ -131,6 +133,7 @@ class Launcher:
         self._recorded: dict[tuple, Prepared] = {}
         self.launches = 0
         self.single_thread: Counter = Counter()
+        self.log: list | None = None
 
     def prepare(self, kernel, dim: int, inputs: list) -> Prepared:
         """The recorded launch of ``kernel`` on these arrays and structs (recorded now if new), its scalars set

@@ -10,7 +10,8 @@ class GrowableBuffer:
     """A growable device buffer of pairs or contacts (a kernels.detection.ContactBuffer).
 
     capacity: entries allocated; count: a device int32 the kernels fill; grows: how often it grew
-    buffer: the ContactBuffer struct (ids, and with points normal, point1 [m], point2 [m], radius1 [m], radius2 [m], pair: the candidate pair of each contact)
+    buffer: the ContactBuffer struct (ids, and with points normal, point1 [m], point2 [m], radius1 [m],
+        radius2 [m], pair: the candidate pair of each contact)
     """
 
     def __init__(self, device, capacity: int, with_points: bool):

@@ -56,8 +56,8 @@ class Detection:
         self.pair_count = self.pairs.fill(pairs)
 
         def contacts(buffer):
-            m.launch(detection_kernels.narrow_phase, self.pair_count, [self.pairs.buffer, geoms, self.geometry.max_reach,
-                                                                        buffer])
+            m.launch(detection_kernels.narrow_phase, self.pair_count,
+                     [self.pairs.buffer, geoms, self.geometry.max_reach, buffer])
 
         self.count = self.contacts.fill(contacts) if self.pair_count else 0
         return self.count

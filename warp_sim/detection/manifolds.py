@@ -21,9 +21,10 @@ class ContactManifolds:
     """Manifolds and colours of a Detection's last contacts (``sort``, then ``colour``).
 
     slot: each contact's row (contacts sorted by pair); row_ids: each row's bodies; set: the kernels'
-    ManifoldSet (row_ids, offsets, counts, order, body_count); colours_of: each pair's colour (-1: no contacts); colours: (first, size) per colour in solve order, body-body ones first;
-    body_colours: how many of them are body-body; rounds: colouring rounds of the last build (1 unless a
-    body touched more than 64 others)
+    ManifoldSet (row_ids, offsets, counts, order, body_count); colours_of: each pair's colour (-1: no
+    contacts); colours: (first, size) per colour in solve order, body-body ones first; body_colours: how
+    many of them are body-body; rounds: colouring rounds of the last colouring (1 unless a body touched more
+    than 64 others); tally: the colours' sizes, then the overflow and impact counters
     """
 
     def __init__(self, model: Model, detection: Detection):

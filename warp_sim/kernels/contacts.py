@@ -79,9 +79,10 @@ def prepare_contacts(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), ro
     earliest root is the time of impact (or the linear crossing of the start and end gaps).
     after_impact: the normal velocity the forces add after the impact, a_n (h - t) [m/s].
     start, end: the bodies at the start and end of the step (Bodies); mass: BodyMass; rows: the contacts'
-    ContactRows, written at row slot[c] (sorted by pair), and row_ids, the row's bodies; work.impact: per body, the earliest impact (fraction of the step) among its
-    bouncing contacts; impacts[0] counts the contacts that collide in the first collision sweep (the sweeps run only if
-    any; work must hold the end velocities, load_velocities).
+    ContactRows, written at row slot[c] (sorted by pair), and row_ids, the row's bodies; work.impact: per
+    body, the earliest impact (fraction of the step) among its bouncing contacts; impacts[0] counts the
+    contacts that collide in the first collision sweep (the sweeps run only if any; work must hold the end
+    velocities, load_velocities).
     """
     c = wp.tid()
     i = contacts.ids[c][0]

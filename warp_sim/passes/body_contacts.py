@@ -53,14 +53,14 @@ class BodyContacts(Pass):
     tolerance: a manifold's resting iterations stop once no update changes a contact velocity by more [m/s]
     relax: the share of a body-body overlap the projection removes per step [1] (all of it against statics)
     manifolds: the grouping and colouring (ContactManifolds)
-    max_step: the longest step the response holds stacks and piles at [s]: sim.step(1/60) takes two sub-steps
-        of 1/120 s (see Pass.max_step; None: no sub-steps)
+    max_step: the longest step it takes [s] (Pass.max_step; the Simulator's contact_step, by default 1/120 s:
+        the longest at which the default sweeps hold stacks and landing piles; None: no sub-steps)
     """
 
     def __init__(self, model: Model, detection: Detection, position_response: float, slop: float = 1.0e-4,
                  bounce_speed: float | None = None, sweeps: tuple[int, int, int] = (8, 16, 4),
                  iterations: tuple[int, int, int] = (8, 2, 4), relax: float = 0.2, tolerance: float = 1.0e-4,
-                 max_step: float | None = 1.0 / 120.0):
+                 max_step: float | None = None):
         self.model = model
         self.geometry = detection.geometry
         self.detection = detection

@@ -55,5 +55,10 @@ class Integrator:
         """The solver's counters (empty for a fixed-step explicit solver)."""
         return {}
 
+    def pending_warning(self) -> str | None:
+        """A warning about the steps since the last call (e.g. solves that stopped unconverged), or None; the
+        Simulator issues it once per step() or run() call."""
+        return None
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
