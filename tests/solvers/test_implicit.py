@@ -217,7 +217,7 @@ def run_cloth(n, capsys, seconds=10.0, h=1.0 / 60.0, rise_tolerance=1e-6, **opti
 
 
 def test_small_cloth_stays_finite_and_loses_energy(capsys):
-    """A 16 x 16 version of the 64 x 64 test below, for 3 s, with the default (tight) CG tolerance."""
+    """A 16 x 16 version of the 64 x 64 test below, for 3 s, with the default CG settings."""
     run_cloth(16, capsys, seconds=3.0)
 
 
@@ -228,7 +228,8 @@ def test_64x64_cloth_stays_finite_and_loses_energy(capsys):
     stable and loses energy with inexact solves too (a capped solve may let the energy rise by a few
     1e-4 of E0 in a step, so the per-step bound is 1e-3 here; the 16 x 16 test holds the tight one),
     and the run takes about a minute and a half."""
-    run_cloth(64, capsys, rise_tolerance=1e-3, tolerance=1e-3, max_iterations=40, check_every=10)
+    with pytest.warns(RuntimeWarning, match="stopped at the cap of 40 iterations"):
+        run_cloth(64, capsys, rise_tolerance=1e-3, tolerance=1e-3, max_iterations=40, check_every=10)
 
 
 # -- fixed points and conservation ------------------------------------------------------------------------------
