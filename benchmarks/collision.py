@@ -5,7 +5,7 @@
 
 The scene: N free rigid bodies, half ws.Box (half extents 0.05..0.1 m per axis, random) and
 half ws.Sphere (radius 0.05..0.1 m, random), density 1000 kg/m^3, uniformly random
-orientations, at rest on a jittered 3-D lattice above the ground (at most LAYERS layers, a
+orientations, at rest on a jittered 3-D lattice above the ground (at most 10 layers, a
 square footprint; the lattice spacing leaves a gap between any two bodies' bounding spheres
 whatever the jitter, so nothing overlaps at the start), gravity (the Scene default),
 scene.add_ground(restitution=0.3, friction=0.5) and the same restitution and friction on
@@ -19,8 +19,11 @@ then time --steps steps (common.time_steps: the device synchronised around one
 sim.step(dt, steps=...) call, the guard read once at its end). The kernels are warm: every
 kernel was compiled or loaded beforehand on a small pile, and the settling steps have run at
 this N. Reported: steps/s and ms/step, the pairs and contacts of the last step and the
-buffers' capacities, growths and bytes (sim.body_contacts.stats()), and the pile's state at
-the end (highest speed, deepest ground penetration, bodies whose centre is below the ground).
+buffers' capacities, growths and bytes (sim.body_contacts.stats()), the colours of the last
+step, the kernel launches per step and those with one thread (the launcher's counters; a
+colour of one manifold is one thread), and the pile's state at the end (highest speed,
+deepest ground penetration, bodies whose centre is below the ground). The contact solve's
+share is that of SOLVE_KERNELS in the profiled kernels' time.
 Then --profile-steps more steps with every launch synchronised and timed on its own
 (common.KernelProfile; the simulator is made inside it with profiling off until then).
 
@@ -49,62 +52,38 @@ from common import KernelProfile, device_name, markdown, pick_device, time_steps
 from rigid import KERNEL_LABELS as SOLVER_KERNELS
 
 import warp_sim as ws
+from warp_sim.studies import contact_scenes
 
 DT = 1.0 / 240.0  # [s]
-SIZE_RANGE = (0.05, 0.1)  # [m], box half extents (per axis) and sphere radii
-DENSITY = 1000.0  # [kg/m^3]
-RESTITUTION, FRICTION = 0.3, 0.5  # the ground's and every body's
-JITTER = 0.05  # [m], per axis, uniform in [-JITTER, JITTER]
-GAP = 0.01  # [m], least gap between two bounding spheres at the start
-SPACING = 2.0 * (math.sqrt(3.0) * SIZE_RANGE[1] + JITTER) + GAP  # [m], lattice pitch: 0.456 m
-LAYERS = 10  # at most; about what falls to the ground within the default 1 s settle (4.9 m)
-BASE = 0.3  # [m], height of the lowest layer's centres
+SIZE_RANGE = contact_scenes.PILE_SIZES  # [m], box half extents (per axis) and sphere radii
+DENSITY = contact_scenes.PILE_DENSITY  # [kg/m^3]
+RESTITUTION, FRICTION = contact_scenes.PILE_RESTITUTION, contact_scenes.PILE_FRICTION  # the ground's and every body's
 SEED = 0
 #: BodyContacts' kernels in launch order (the profile table has a column each; the solver's and the guard's
 #: launches, labelled as in rigid.py, are summed in one column)
 CONTACT_KERNELS = {"gather_poses": "poses", "find_pairs": "broad", "narrow_phase": "narrow",
-                   "load_velocities": "load v", "prepare_contacts": "prepare", "recall_impulses": "recall",
-                   "collision_sweeps": "collision GS", "contact_sweeps": "contact GS",
-                   "remember_impulses": "remember", "finish_response": "finish", "project_positions": "project"}
-
-
-def lattice(n: int) -> tuple[np.ndarray, tuple[int, int, int]]:
-    """n lattice points, layer by layer from the bottom: min(LAYERS, ceil(cbrt n)) layers over a square
-    footprint of side ceil(sqrt(n / layers)) points, SPACING apart, centred on x = z = 0, the lowest at y = BASE."""
-    layers = min(LAYERS, math.ceil(round(n ** (1.0 / 3.0), 9)))
-    side = math.ceil(math.sqrt(n / layers))
-    layers = math.ceil(n / side**2)
-    j, i, k = np.meshgrid(np.arange(layers), np.arange(side), np.arange(side), indexing="ij")
-    points = np.stack([i.ravel(), j.ravel(), k.ravel()], axis=1)[:n].astype(np.float64)
-    offset = np.array([(side - 1) / 2.0, -BASE / SPACING, (side - 1) / 2.0])
-    return SPACING * (points - offset), (side, layers, side)
+                   "count_pair_contacts": "count", "sort_by_pair": "sort", "load_velocities": "load v",
+                   "prepare_contacts": "prepare", "recall_impulses": "recall", "colour_pairs": "colour",
+                   "order_by_colour": "order", "collide_manifolds": "collision GS", "prepare_rows": "rows",
+                   "warm_start_manifolds": "warm start", "solve_manifolds": "contact GS",
+                   "remember_impulses": "remember", "finish_response": "finish", "project_manifolds": "project"}
+#: the contact solve proper (its share of a step is reported): the coloured sweeps and what feeds them
+SOLVE_KERNELS = ("colour_pairs", "order_by_colour", "collide_manifolds", "prepare_rows", "warm_start_manifolds",
+                 "solve_manifolds", "finish_response", "project_manifolds")
 
 
 def body_parameters(n: int, seed: int = SEED) -> dict:
-    """n bodies' shapes and poses as arrays: kind ("box" or "sphere", half each, shuffled), size (box half
-    extents; a sphere's radius in column 0), position (the lattice jittered), orientation (uniformly random)."""
-    rng = np.random.default_rng(seed)
-    kinds = np.array(["box"] * (n // 2) + ["sphere"] * (n - n // 2))
-    rng.shuffle(kinds)
-    sizes = rng.uniform(*SIZE_RANGE, size=(n, 3))
-    points, shape = lattice(n)
-    positions = points + rng.uniform(-JITTER, JITTER, size=(n, 3))
-    quaternions = rng.normal(size=(n, 4))
-    quaternions /= np.linalg.norm(quaternions, axis=1, keepdims=True)
-    return {"kind": kinds, "size": sizes, "position": positions, "orientation": quaternions, "lattice": shape}
+    """contact_scenes.pile_bodies(n, seed), with the lattice's shape (x, y, z points) under "lattice"."""
+    bodies = contact_scenes.pile_bodies(n, seed)
+    layers = min(contact_scenes.PILE_LAYERS, math.ceil(round(n ** (1.0 / 3.0), 9)))
+    side = math.ceil(math.sqrt(n / layers))
+    bodies["lattice"] = (side, math.ceil(n / side**2), side)
+    return bodies
 
 
 def build_scene(parameters: dict) -> ws.Scene:
-    """The ground and one add_rigid_body call per body, as a user would; the Scene's default gravity."""
-    scene = ws.Scene()
-    scene.add_ground(restitution=RESTITUTION, friction=FRICTION)
-    for kind, size, position, orientation in zip(parameters["kind"].tolist(), parameters["size"].tolist(),
-                                                 parameters["position"].tolist(),
-                                                 parameters["orientation"].tolist(), strict=True):
-        shape = ws.Box(size) if kind == "box" else ws.Sphere(size[0])
-        scene.add_rigid_body(shape, density=DENSITY, position=position, orientation=orientation,
-                             restitution=RESTITUTION, friction=FRICTION)
-    return scene
+    """The ground and one add_rigid_body call per body, as a user would (contact_scenes.pile)."""
+    return contact_scenes.pile(parameters)
 
 
 def pile_state(sim: ws.Simulator, parameters: dict) -> dict:
@@ -112,11 +91,7 @@ def pile_state(sim: ws.Simulator, parameters: dict) -> dict:
     centre is below the ground, the highest centre, and the bodies' spread from the axis (x, z) [m]."""
     x = sim.state.body_x.numpy().astype(np.float64)
     v = sim.body_velocities()[0].numpy().astype(np.float64)
-    R = sim.body_rotations().numpy().astype(np.float64)
-    is_box = parameters["kind"] == "box"
-    # lowest point: a sphere's centre less its radius; a box's centre less the y-extent of its rotated half extents
-    reach = np.where(is_box, np.sum(np.abs(R[:, 1, :]) * parameters["size"], axis=1), parameters["size"][:, 0])
-    lowest = x[:, 1] - reach
+    lowest = contact_scenes.lowest_points(x, sim.body_rotations().numpy().astype(np.float64), parameters)
     finite = bool(np.isfinite(x).all() and np.isfinite(v).all())
     return {"finite": finite, "max_speed": float(np.linalg.norm(v, axis=1).max()),
             "lowest_point": float(lowest.min()), "centres_below_ground": int(np.count_nonzero(x[:, 1] < 0.0)),
@@ -230,7 +205,11 @@ def bench_size(n: int, device, args, newton) -> dict:
         result["pile_after_settle"] = pile_state(sim, parameters)
         print(f"  settled in {result['settle_s']:.2f} s; timing {args.steps} steps ...", flush=True)
         phase = "timed"
+        launcher = sim.model.launcher
+        launches, single = launcher.launches, sum(launcher.single_thread.values())
         seconds = time_steps(sim, args.steps, args.dt)
+        launches_per_step = (launcher.launches - launches) / args.steps
+        single_per_step = (sum(launcher.single_thread.values()) - single) / args.steps
         stats = sim.body_contacts.stats()
         pile = pile_state(sim, parameters)
         phase = "profile"
@@ -248,11 +227,16 @@ def bench_size(n: int, device, args, newton) -> dict:
                              "element": error.element, "reason": error.reason})
         return result
     rate = args.steps / seconds
-    print(f"  {rate:.1f} steps/s, {stats['pairs']} pairs, {stats['contacts']} contacts, "
-          f"max speed {pile['max_speed']:.3g} m/s, lowest point {pile['lowest_point']:.4f} m", flush=True)
+    total_ms = sum(k["ms"] for k in kernels.values())
+    solve_share = sum(kernels[k]["ms"] for k in SOLVE_KERNELS if k in kernels) / total_ms if total_ms else None
+    print(f"  {rate:.1f} steps/s, {stats['pairs']} pairs, {stats['contacts']} contacts, {stats['colours']} colours, "
+          f"{launches_per_step:.0f} launches/step ({single_per_step:.1f} with one thread), contact solve "
+          f"{100 * (solve_share or 0):.0f} % of the kernels' time, max speed {pile['max_speed']:.3g} m/s, "
+          f"lowest point {pile['lowest_point']:.4f} m", flush=True)
     result.update(seconds=seconds, steps_per_s=rate, ms_per_step=1e3 / rate, body_steps_per_s=rate * n,
                   contact_stats=stats, pile=pile, profile_steps=profile_steps, kernels_per_step=kernels,
-                  simulated_s=sim.time)
+                  launches_per_step=launches_per_step, single_thread_launches_per_step=single_per_step,
+                  contact_solve_share=solve_share, simulated_s=sim.time)
     del sim
     if newton is not None:
         print("  Newton ...", flush=True)
@@ -280,11 +264,14 @@ def tables(device_alias: str, results: list[dict], newton_status: str) -> str:
                            f"{r['simulator_build_s']:.2f}", f"{r['settle_steps']}", settle])
         if "error" in r:
             e = r["error"]
-            rows.append([device_alias, n, f"{e['phase']}: {e['type']} at step {e['step']}"] + ["-"] * 10)
+            rows.append([device_alias, n, f"{e['phase']}: {e['type']} at step {e['step']}"] + ["-"] * 14)
             continue
         s = r["contact_stats"]
+        share = r.get("contact_solve_share")
         rows.append([device_alias, n, f"{r['boxes']:,} / {r['bodies'] - r['boxes']:,}", f"{r['steps_per_s']:.1f}",
-                     f"{r['ms_per_step']:.2f}", f"{s['pairs']:,}", f"{s['contacts']:,}", f"{s['pair_capacity']:,}",
+                     f"{r['ms_per_step']:.2f}", "-" if share is None else f"{100 * share:.0f} %",
+                     f"{s['colours']}", f"{r['launches_per_step']:.0f}", f"{r['single_thread_launches_per_step']:.1f}",
+                     f"{s['pairs']:,}", f"{s['contacts']:,}", f"{s['pair_capacity']:,}",
                      f"{s['contact_capacity']:,}", f"{s['grows']}", f"{s['bytes'] / 2**20:.2f}"]
                     + newton_cells(r, newton_status))
         for label, p in (("after settle", r["pile_after_settle"]), ("after timed steps", r["pile"])):
@@ -299,7 +286,8 @@ def tables(device_alias: str, results: list[dict], newton_status: str) -> str:
                                + [f"{solver:.2f}", f"{total:.2f}", f"{r['ms_per_step']:.2f}"])
     solver_labels = ", ".join(SOLVER_KERNELS.get(key, key) for key in sorted(
         {key for r in results for key in r.get("kernels_per_step", {}) if key not in CONTACT_KERNELS}))
-    out = [markdown(["device", "N", "boxes / spheres", "steps/s", "ms/step", "pairs", "contacts", "pair capacity",
+    out = [markdown(["device", "N", "boxes / spheres", "steps/s", "ms/step", "contact solve share", "colours",
+                     "launches/step", "one-thread launches/step", "pairs", "contacts", "pair capacity",
                      "contact capacity", "grows", "buffers MiB", "Newton steps/s", "warp_sim / Newton"], rows,
                     left=("device", "boxes / spheres")),
            markdown(["N", "lattice (x, y, z)", "scene s", "Simulator s", "settle steps", "settle s (ms/step)"],
@@ -341,8 +329,8 @@ def main(argv=None) -> None:
     version = getattr(newton, "__version__", "?") if newton is not None else newton_status
     print(f"warp {wp.__version__}, warp_sim on {device.alias} ({name}); numpy {np.__version__}; newton {version}")
     print(f"dt = {args.dt:.6g} s, settle {args.settle:g} s, {args.steps} timed steps; boxes and spheres "
-          f"{SIZE_RANGE[0]}..{SIZE_RANGE[1]} m, lattice pitch {SPACING:.3f} m, restitution {RESTITUTION}, "
-          f"friction {FRICTION}")
+          f"{SIZE_RANGE[0]}..{SIZE_RANGE[1]} m, lattice pitch {contact_scenes.PILE_SPACING:.3f} m, "
+          f"restitution {RESTITUTION}, friction {FRICTION}")
     kernels_s = load_kernels(device, args.dt)
     print(f"kernels compiled or loaded in {kernels_s:.2f} s", flush=True)
 
@@ -363,7 +351,8 @@ def main(argv=None) -> None:
               "integrator": "symplectic_euler", "contact": "impulse", "precision": "float32", "dt": args.dt,
               "settle_s": args.settle, "steps": args.steps, "profile_steps": args.profile_steps,
               "size_range": SIZE_RANGE, "density": DENSITY, "restitution": RESTITUTION, "friction": FRICTION,
-              "spacing": SPACING, "jitter": JITTER, "seed": SEED, "kernel_load_s": kernels_s,
+              "spacing": contact_scenes.PILE_SPACING, "jitter": contact_scenes.PILE_JITTER, "seed": SEED,
+              "kernel_load_s": kernels_s,
               "wall_s": time.perf_counter() - started, "sizes_results": results}
     args.out.write_text(json.dumps(result, indent=2) + "\n")
     print(f"wrote {args.out}")

@@ -14,7 +14,6 @@ import numpy as np
 import warp as wp
 
 from warp_sim import Simulator
-from warp_sim.core.launcher import Launcher
 from warp_sim.simulator import resolve_device
 
 wp.config.log_level = wp.LOG_WARNING  # no per-module load messages (they are printed at launch, not import)
@@ -94,38 +93,32 @@ def device_name(device) -> str:
 class KernelProfile:
     """Per kernel: launches, seconds (synchronised around each launch) and bytes of the arrays passed.
 
-    Only the launches of Models made inside ``instrumented`` go through it (a Model binds its
-    launcher's method when made). While ``enabled`` is False they run unmeasured, at the cost of
-    one extra Python call per launch, so one simulator can be timed whole and then profiled.
+    Only the launches of the Simulators made by ``instrumented`` are measured (through their Model's
+    launcher, ``Launcher.profile``), and only while ``enabled``, so one simulator can be timed whole and
+    then profiled.
     """
 
     def __init__(self):
         self.stats: dict[str, list] = {}
-        self.enabled = True
+        self._launchers = []
+        self._enabled = True
+
+    @property
+    def enabled(self) -> bool:
+        return self._enabled
+
+    @enabled.setter
+    def enabled(self, value: bool) -> None:
+        self._enabled = value
+        for launcher in self._launchers:
+            launcher.profile = self.stats if value else None
 
     def instrumented(self, make):
-        """make(), with every launch of the Models made inside it going through this profile."""
-        original, stats, profile = Launcher.launch, self.stats, self
-
-        def launch(launcher, kernel, dim, inputs):
-            if not profile.enabled:
-                return original(launcher, kernel, dim, inputs)
-            if dim == 0:
-                return
-            wp.synchronize_device(launcher.device)
-            start = time.perf_counter()
-            original(launcher, kernel, dim, inputs)
-            wp.synchronize_device(launcher.device)
-            entry = stats.setdefault(kernel.key, [0, 0.0, 0])
-            entry[0] += 1
-            entry[1] += time.perf_counter() - start
-            entry[2] += sum(a.size * wp.types.type_size_in_bytes(a.dtype) for a in inputs if isinstance(a, wp.array))
-
-        Launcher.launch = launch  # a Model binds its launcher's method when made, so only its launches are timed
-        try:
-            return make()
-        finally:
-            Launcher.launch = original
+        """make() (a Simulator), its launches measured while this profile is enabled."""
+        sim = make()
+        self._launchers.append(sim.model.launcher)
+        self.enabled = self._enabled
+        return sim
 
     def per_step(self, steps: int) -> dict:
         return {key: {"launches": launches / steps, "ms": 1e3 * seconds / steps, "bytes": nbytes / steps}

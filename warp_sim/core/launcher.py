@@ -16,6 +16,7 @@ Where this Warp's internals differ from what the fast path expects, it falls bac
 from __future__ import annotations
 
 import ctypes
+import time
 from collections import Counter
 
 import warp as wp
@@ -97,6 +98,25 @@ class Prepared:
             launcher.single_thread[self.command.kernel.key] += 1
         if launcher.log is not None:
             launcher.log.append((self.command.kernel.key, dim))
+        if launcher.profile is not None:
+            self._timed(dim)
+            return
+        self._run(dim)
+
+    def _timed(self, dim: int) -> None:
+        """run() with the device synchronised around the launch, its time and argument bytes added to the
+        launcher's profile."""
+        device = self.command.device
+        wp.synchronize_device(device)
+        start = time.perf_counter()
+        self._run(dim)
+        wp.synchronize_device(device)
+        entry = self.launcher.profile.setdefault(self.command.kernel.key, [0, 0.0, 0])
+        entry[0] += 1
+        entry[1] += time.perf_counter() - start
+        entry[2] += sum(a.size * wp.types.type_size_in_bytes(a.dtype) for a in self.inputs if isinstance(a, wp.array))
+
+    def _run(self, dim: int) -> None:
         command = self.command
         if self.direct is None:
             if dim != self.dim:
@@ -123,7 +143,9 @@ class Launcher:
     starts afresh, so memory stays bounded (and such calls cost a normal launch).
 
     launches: kernel launches so far; single_thread: a count per kernel name of launches with one thread;
-    log: None, or a list each launch appends (kernel name, threads) to
+    log: None, or a list each launch appends (kernel name, threads) to;
+    profile: None, or a dict each launch adds to, per kernel name [launches, seconds, argument bytes], the device
+        synchronised around each launch (benchmarks/common.KernelProfile)
     """
 
     capacity = 512
@@ -134,6 +156,7 @@ class Launcher:
         self.launches = 0
         self.single_thread: Counter = Counter()
         self.log: list | None = None
+        self.profile: dict | None = None
 
     def prepare(self, kernel, dim: int, inputs: list) -> Prepared:
         """The recorded launch of ``kernel`` on these arrays and structs (recorded now if new), its scalars set

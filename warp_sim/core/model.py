@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from ..kernels import blocks
+from ..kernels import blocks, precisions
 from ..scene import Scene
 from .launcher import Launcher
 
@@ -67,6 +67,7 @@ class Model:
         for name in _ARRAYS + ("springs", "planes", "particle_material", "body_mass"):
             setattr(self, name, None)
         self.blocks = blocks.of(self.scalar)
+        precisions.declare(self.scalar)   # the generic kernels' overloads in this precision, built together
         if self.particle_count:
             self._build_particles(scene)
         if self.spring_count:

@@ -20,7 +20,9 @@ Topics:
 - ``geometry``: signed distances of every shape, segment and polygon helpers (functions only)
 - ``detection``: body collision shapes on the device, hash-grid broad phase, narrow phase
 - ``contacts``: body contact response (time of impact, impulses, friction, warm starting, projection)
+- ``manifolds``: contacts grouped by pair, and the pairs coloured for the parallel Gauss-Seidel solve
 - ``particle_shapes``: particles pushed by bodies and static colliders
-- ``precisions`` (no kernels): registers both precisions of a module's generic kernels at import
+- ``precisions`` (no kernels): registers each module's generic kernels at import; declares their overloads
+  for the precision in use (a Model calls ``declare``)
 - ``guards``: detection of non-finite or runaway states
 """

@@ -8,6 +8,8 @@ from typing import Any
 
 import warp as wp
 
+from .precisions import register
+
 __all__ = ["aerodynamic_forces"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
@@ -140,3 +142,6 @@ def reset_strain_counters(violations: wp.array(dtype=wp.int32), max_strain: wp.a
     """violations[0] = 0 and max_strain[0] = start (-1: below any strain), before a sweep."""
     violations[0] = 0
     max_strain[0] = start
+
+
+register(globals(), start="scalar")

@@ -14,7 +14,7 @@ import warp as wp
 from .detection import ContactBuffer, Geoms, is_body
 from .manifolds import ManifoldSet, manifold_rows
 from .planes import first_contact_time
-from .precisions import declare_precisions
+from .precisions import register
 from .rigid import angular_velocity
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
@@ -538,4 +538,4 @@ def project_manifolds(manifolds: ManifoldSet, first: int, iterations: int, rows:
             break
 
 
-declare_precisions(globals())
+register(globals())

@@ -23,7 +23,7 @@ from .geometry import (
     corner_sign,
     shape_distance,
 )
-from .precisions import declare_precisions
+from .precisions import register
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
@@ -389,4 +389,4 @@ def narrow_phase(pairs: ContactBuffer, geoms: Geoms, max_reach: wp.array(dtype=w
             samples_against_shape(geoms, b, a, pair_margin, contacts, p)
 
 
-declare_precisions(globals())
+register(globals())

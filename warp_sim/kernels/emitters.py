@@ -18,6 +18,8 @@ from typing import Any
 
 import warp as wp
 
+from .precisions import register
+
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
 __all__ = []
@@ -323,3 +325,6 @@ def age_and_kill(
     pool.color[slot] = rgb
     pool.opacity[slot] = alpha
     material.radius[i] = type(radius)(size)
+
+
+register(globals())

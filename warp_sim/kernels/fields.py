@@ -13,6 +13,8 @@ from typing import Any
 
 import warp as wp
 
+from .precisions import register
+
 __all__ = ["attractor_forces", "vortex_forces", "turbulence_forces"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
@@ -128,3 +130,6 @@ def turbulence_forces(x: wp.array(dtype=Any), inv_mass: wp.array(dtype=Any), t: 
     i = wp.tid()
     if is_free(inv_mass, i):
         force[i] = force[i] + turbulence_acceleration(x[i], t, turbulences) / inv_mass[i]
+
+
+register(globals())

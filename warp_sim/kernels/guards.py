@@ -8,6 +8,8 @@ from typing import Any
 
 import warp as wp
 
+from .precisions import register
+
 __all__ = ["check_finite_and_bounded"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
@@ -98,3 +100,6 @@ def check_bodies(bodies: Any, mass: Any, max_speed: Any, step: int, record: Guar
     elif not velocity_ok:
         reason = REASON_VELOCITY
     record_first_bad(step, 4 * i + reason, record)
+
+
+register(globals())

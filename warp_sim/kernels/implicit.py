@@ -32,6 +32,8 @@ from typing import Any
 
 import warp as wp
 
+from .precisions import register
+
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
 __all__ = []
@@ -196,3 +198,6 @@ def velocity_update(
     else:
         dv[i] = type(dv[i])()
         v1[i] = v0[i]
+
+
+register(globals(), y="vec3", z="vec3")

@@ -15,6 +15,8 @@ from typing import Any
 
 import warp as wp
 
+from .precisions import register
+
 __all__ = ["axpy", "copy", "rk4_combine"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
@@ -160,3 +162,6 @@ def dp_error_max(
         e = type(h)(wp.inf)
     if e > err_max[0]:      # a plain read first: most threads skip the atomic
         wp.atomic_max(err_max, 0, e)
+
+
+register(globals(), copy={"source": "vec3", "out": "vec3"})   # copy: positions from velocities

@@ -12,7 +12,7 @@ from .contacts import body_point_velocity
 from .detection import Geoms, is_body
 from .geometry import shape_distance
 from .planes import contact_material, coulomb_friction
-from .precisions import declare_precisions
+from .precisions import register
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
@@ -77,4 +77,4 @@ def push_particle_from(geoms: Geoms, g: int, bodies: Any, mass: Any, x: wp.array
         touched_out[i] = 1
 
 
-declare_precisions(globals())
+register(globals())

@@ -6,6 +6,8 @@ from typing import Any
 
 import warp as wp
 
+from .precisions import register
+
 __all__ = ["particle_acceleration"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
@@ -43,3 +45,6 @@ def particle_acceleration(
             f = f + force[i]
         acc = gravity + f * w
     dv[i] = acc
+
+
+register(globals())

@@ -16,7 +16,7 @@ import warp as wp
 from .contacts import body_point_velocity, pair_material
 from .detection import ContactBuffer, Geoms, is_body
 from .planes import contact_material
-from .precisions import declare_precisions
+from .precisions import register
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
@@ -170,4 +170,4 @@ def body_penalty_forces(contacts: ContactBuffer, geoms: Geoms, bodies: Any, mass
         wp.atomic_sub(accumulated.torque, j, wp.cross(r2, F))
 
 
-declare_precisions(globals())
+register(globals())

@@ -13,6 +13,8 @@ from typing import Any
 
 import warp as wp
 
+from .precisions import register
+
 __all__ = ["resolve_plane_impacts"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
@@ -191,3 +193,6 @@ def resolve_plane_impacts(
         v[i] = ve
         if touched_out.shape[0] > 0:
             touched_out[i] = 1
+
+
+register(globals())

@@ -16,6 +16,8 @@ from typing import Any
 
 import warp as wp
 
+from .precisions import register
+
 __all__ = ["body_momentum_rates", "body_position_rates", "normalize_orientations", "body_velocities",
            "rotation_matrices", "apply_impulse"]
 
@@ -135,3 +137,6 @@ def apply_impulse(body: int, impulse: Any, point: Any, bodies: Any):
     """
     bodies.P[body] = bodies.P[body] + impulse
     bodies.L[body] = bodies.L[body] + wp.cross(point - bodies.x[body], impulse)
+
+
+register(globals())

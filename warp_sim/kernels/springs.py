@@ -6,6 +6,8 @@ from typing import Any
 
 import warp as wp
 
+from .precisions import register
+
 __all__ = ["spring_forces"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
@@ -44,3 +46,6 @@ def spring_forces(
         f = magnitude * d
         wp.atomic_add(force, j, f)
         wp.atomic_sub(force, i, f)
+
+
+register(globals())

@@ -14,6 +14,7 @@ from typing import Callable
 import numpy as np
 
 from ..scene import Attractor, Scene
+from . import contact_scenes
 from .problems import G, pendulum_period
 
 STRETCH = 1e-6          # [m] initial perturbations: far inside the linear range, so growth cannot saturate early
@@ -39,6 +40,7 @@ class Case:
     options: dict = field(default_factory=dict)
     notes: str = ""
     unit: tuple | None = None      # (size [s], name): a unit the report also gives the limits in
+    bound: float | None = None     # a size past it is unstable, whatever its growth (a stack that moved 5 mm)
 
 
 def linear_omega(scene: Scene) -> float:
@@ -227,5 +229,29 @@ def _cases() -> dict:
     return {case.name: case for case in items}
 
 
+def _moved(sim) -> float:
+    """The largest distance [m] any body has moved from where the scene put it."""
+    start = np.array([body.position for body in sim.scene.bodies], dtype=np.float64)
+    return contact_scenes.displacement(sim, start)
+
+
+STANDS = 5e-3      # [m] a contact case still stands while no body has moved this far
+CONTACT_CASES = (
+    ("stack_10", "a stack of ten 0.5 m boxes of 1 kg, 10 s", lambda: contact_scenes.stack(10)),
+    ("pyramid_15", "a 5-4-3-2-1 pyramid of 0.5 m boxes, 1 cm gaps, 10 s", lambda: contact_scenes.pyramid(5)),
+    ("heavy_on_light_100", "a 100 kg box on four 1 kg boxes, 10 s", lambda: contact_scenes.heavy_on_light(100.0)),
+)
+
+
+def _contact_cases() -> list:
+    """The frame-rate contact scenes: stable while no box moves 5 mm over 10 s. Run without the simulator's
+    sub-steps (contact_step=None), so the limit is the contact solver's own largest step."""
+    return [Case(name, title, build, _moved, None, "contact", duration=10.0, h0=1.0 / 60.0, h_max=0.25,
+                 options={"contact_step": None}, bound=STANDS,
+                 notes="stands: no box moves 5 mm over 10 s; the solver's own step (the Simulator splits steps "
+                       "above contact_step = 1/120 s by default)")
+            for name, title, build in CONTACT_CASES]
+
+
 #: the stability cases by name
-CASES = _cases()
+CASES = {**_cases(), **{case.name: case for case in _contact_cases()}}

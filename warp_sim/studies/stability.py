@@ -1,6 +1,7 @@
 """The stability study: the largest stable step of every integrator on stiff and extreme cases, by bisection.
 
-A run at step h is unstable when it goes non-finite or when the case's size (an energy, or a
+A run at step h is unstable when it goes non-finite, when a bounded case's size passes its bound
+(a contact scene stands while no box has moved 5 mm), or when the case's size (an energy, or a
 distance) grows: its largest value over the run's second half exceeds GROWTH times its largest
 over the first half. Not a fixed bound, so a stable scheme that loses or keeps energy passes and
 one that gains it by a factor per step fails. (A size past BLOWUP times its initial value also
@@ -58,6 +59,10 @@ def grows(case, integrator: str, h: float, steps: int, device: str) -> tuple[boo
         sim.step(h, stride)
         size = case.size(sim)
         sizes.append(size)
+        if case.bound is not None:   # a bounded case: unstable once past its bound (its size starts at 0)
+            if not math.isfinite(size) or size > case.bound:
+                return True, sizes
+            continue
         if not math.isfinite(size) or size > BLOWUP * sizes[0]:
             return True, sizes
         if first is None and done >= steps // 2:
