@@ -2,6 +2,7 @@
 
 The public API: build a Scene, run it with a Simulator, read the State or the USD stage.
 """
+from .verbosity import set_verbose  # first: Warp stays quiet unless asked (ws.set_verbose(True))  # noqa: I001
 from .core import Control, Model, SimulationDiverged, State
 from .scene import (
                     Attractor,
@@ -18,7 +19,7 @@ from .scene import (
                     Turbulence,
                     Vortex,
 )
-from .simulator import Simulator
+from .simulator import RunInterrupted, Simulator
 from .solvers import (
                     INTEGRATORS,
                     RK4,
@@ -36,4 +37,5 @@ __version__ = "0.1.0"
 __all__ = ["Scene", "Simulator", "Model", "State", "Control", "SimulationDiverged", "AdaptiveStepFailed",
            "INTEGRATORS", "Integrator", "Euler", "Midpoint", "RK4", "SymplecticEuler", "VelocityVerlet",
            "ImplicitEuler", "RK45", "Shape", "Sphere", "Box", "Capsule", "Cylinder", "MeshShape", "PointMasses",
-           "MassProperties", "Ramp", "Attractor", "Vortex", "Turbulence", "__version__"]
+           "MassProperties", "Ramp", "Attractor", "Vortex", "Turbulence", "RunInterrupted", "set_verbose",
+           "__version__"]

@@ -6,17 +6,27 @@ import pathlib
 import sys
 import time
 
-import warp as wp
-
 from . import studies
+from .core.guards import SimulationDiverged
 from .demo import demo_scene
-from .simulator import Simulator
-from .solvers import INTEGRATORS
+from .simulator import RunInterrupted, Simulator
+from .solvers import INTEGRATORS, RK45
 from .studies import CASES, PROBLEMS
+from .verbosity import set_verbose
+
+
+def _integrator(args):
+    """The solver the options name: rk45 with --rtol/--atol, or a name (tolerances for another solver: an error)."""
+    if args.rtol is None and args.atol is None:
+        return args.integrator
+    if args.integrator != "rk45":
+        raise ValueError(f"--rtol/--atol are rk45's tolerances; --integrator {args.integrator} takes none")
+    options = {key: value for key, value in (("rtol", args.rtol), ("atol", args.atol)) if value is not None}
+    return RK45(**options)
 
 
 def _demo(args) -> int:
-    sim = Simulator(demo_scene(), integrator=args.integrator, device=args.device)
+    sim = Simulator(demo_scene(), integrator=_integrator(args), device=args.device)
     print(f"warp-sim demo: {sim.scene!r} on {sim.device.alias}, {args.integrator}, "
           f"{args.seconds:g} s at {args.fps:g} fps x {args.substeps} substeps")
     started = time.perf_counter()
@@ -65,8 +75,11 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--substeps", type=int, default=8, help="solver steps per frame (default: 8)")
     demo.add_argument("--out", default="demo.usdc",
                       help="output stage, .usdc/.usd (binary) or .usda (text) (default: demo.usdc)")
+    demo.add_argument("--rtol", type=float, default=None, help="rk45's relative tolerance (default: 1e-6)")
+    demo.add_argument("--atol", type=float, default=None, help="rk45's absolute tolerance (default: 1e-8)")
     demo.add_argument("--no-progress", action="store_true", help="no progress bar")
-    demo.add_argument("--verbose", action="store_true", help="show Warp's compilation messages")
+    demo.add_argument("--verbose", action="store_true",
+                      help="show Warp's compilation messages, and a traceback with any error")
     demo.set_defaults(run=_demo)
     _study_parser(commands, INTEGRATORS)
     return parser
@@ -96,18 +109,40 @@ def _study_parser(commands, integrators) -> None:
             kind.add_argument("--cases", nargs="+", metavar="NAME", choices=list(CASES),
                               help=f"cases (default: all): {', '.join(CASES)}")
         kind.add_argument("--quiet", action="store_true", help="no progress lines")
+        kind.add_argument("--verbose", action="store_true",
+                          help="show Warp's compilation messages, and a traceback with any error")
         kind.set_defaults(run=_study)
 
 
+def _diverged(error: SimulationDiverged) -> str:
+    kept = (f"; the {error.frames_written} frames before it are in {error.usd}" if error.usd is not None
+            else "; no frame was written")
+    return f"warp-sim: {error}{kept}"
+
+
 def main(argv=None) -> int:
-    """Entry point of the `warp-sim` console script."""
+    """Entry point of the `warp-sim` console script: one line and a non-zero exit for every expected failure
+    (bad input 2, divergence or an unwritable output 1, Ctrl-C 130, SIGTERM 143), a traceback only with
+    --verbose."""
     args = build_parser().parse_args(argv)
-    wp.config.log_level = wp.LOG_INFO if getattr(args, "verbose", False) else wp.LOG_WARNING
+    verbose = getattr(args, "verbose", False)
+    set_verbose(verbose)
     try:
         return args.run(args)
-    except ValueError as error:
+    except (ValueError, SimulationDiverged, OSError, KeyboardInterrupt) as error:
+        if verbose:
+            raise
+        if isinstance(error, RunInterrupted):
+            print(f"warp-sim: {error}; nothing was written", file=sys.stderr)
+            return error.exit_code
+        if isinstance(error, KeyboardInterrupt):
+            print("warp-sim: interrupted (Ctrl-C); nothing was written", file=sys.stderr)
+            return 130
+        if isinstance(error, SimulationDiverged):
+            print(_diverged(error), file=sys.stderr)
+            return 1
         print(f"warp-sim: error: {error}", file=sys.stderr)
-        return 2
+        return 2 if isinstance(error, ValueError) else 1
 
 
 if __name__ == "__main__":

@@ -1,7 +1,10 @@
 """Simulator: the loop. Each step: the solver, then the passes in order, then the guard; frames() and run()."""
 from __future__ import annotations
 
+import contextlib
 import math
+import signal
+import threading
 import warnings
 
 import numpy as np
@@ -26,6 +29,10 @@ def resolve_device(device: str | None) -> str:
     if device not in valid:
         raise checks.fail("device", device, f"expected one of {', '.join(valid)} (or None for automatic)")
     return device
+
+
+#: an adaptive solver taking more internal steps than this for one frame gets a warning (once per run)
+SLOW_FRAME_STEPS = 1000
 
 
 class Simulator:
@@ -226,12 +233,21 @@ class Simulator:
     def _frame_loop(self, frames: int, fps: float, substeps: int, arrays: bool):
         h = 1.0 / (fps * substeps)
         start_time = self.time
+        accepted, warned = self.integrator.stats().get("accepted"), False
         for frame in range(frames):
             if frame > 0:
                 for _ in range(substeps):
                     self._advance(h)
                 self.time = start_time + frame / fps
                 self.check()
+                if accepted is not None and not warned:   # an adaptive solver: how hard did this frame make it work?
+                    now = self.integrator.stats()["accepted"]
+                    if now - accepted > SLOW_FRAME_STEPS:
+                        warned = True
+                        warnings.warn(f"{self.integrator!r} took {now - accepted} internal steps for frame {frame} "
+                                      f"(more than {SLOW_FRAME_STEPS} a frame): this run will be slow; loosen rtol "
+                                      "and atol, or use a fixed-step solver", RuntimeWarning, stacklevel=2)
+                    accepted = now
             yield frame, self.time, self.frame_arrays() if arrays else None
         if self.emitters is not None:
             self.emitters.warn_if_skipped()
@@ -247,9 +263,13 @@ class Simulator:
             chunk_frames: int | None = None):
         """Simulate the frames of ``frames(seconds, fps, substeps)``, writing each to USD.
 
-        usd: output path (.usdc, .usd or .usda) or None. On divergence the stage keeps every frame
-        before the bad one and SimulationDiverged propagates; any other interruption leaves no file.
-        Returns the written path (a pathlib.Path), or None without usd.
+        usd: output path (.usdc, .usd or .usda) or None; checked before anything is simulated (an existing
+        folder, a folder that cannot be made or written, a bad extension: ValueError or OSError naming it).
+        On divergence the stage keeps every frame before the bad one and SimulationDiverged propagates, with
+        ``frames_written`` and ``usd`` set; with guard=False a frame holding a non-finite value counts as
+        divergence, so nothing non-finite is written. Any other interruption (an error, Ctrl-C, SIGTERM:
+        RunInterrupted) leaves no file, not even a partial one. Returns the written path (a pathlib.Path), or
+        None without usd.
         """
         frames = self.frames(seconds, fps, substeps, arrays=usd is not None)   # checks the arguments first
         total = int(round(float(seconds) * float(fps)))
@@ -258,17 +278,69 @@ class Simulator:
             chunk_frames = int(min(240, max(1, 256 * 2**20 // frame_bytes)))
         writer = StageWriter(usd, fps, stage_layout(self.scene), chunk_frames) if usd is not None else None
         try:
-            with tqdm(total=total, unit="frame", disable=None if progress else True, desc="simulating") as bar:
+            with interruptions(), tqdm(total=total, unit="frame", disable=None if progress else True,
+                                       desc="simulating") as bar:
                 for frame, _, arrays in frames:
                     if writer is not None:
+                        if self.guard is None:
+                            self._refuse_non_finite(frame, arrays)
                         writer.write_frame(frame, **arrays)
                     bar.update(1)
-        except SimulationDiverged:
-            if writer is not None:
-                writer.close()
+            return writer.close() if writer is not None else None
+        except SimulationDiverged as error:
+            if writer is not None and writer.frames_written:
+                error.frames_written, error.usd = writer.frames_written, writer.close()
+            elif writer is not None:
+                writer.abort()
             raise
         except BaseException:
             if writer is not None:
                 writer.abort()
             raise
-        return writer.close() if writer is not None else None
+
+    def _refuse_non_finite(self, frame: int, arrays: dict) -> None:
+        """With the guard off: a frame holding a non-finite position or velocity raises SimulationDiverged
+        (the frames before it are kept, as with the guard)."""
+        alive = arrays.get("particle_alive")
+        for component, names in (("particles", ("particle_x", "particle_v")), ("bodies", ("body_x", "body_q"))):
+            for name in names:
+                values = arrays.get(name)
+                if values is None:
+                    continue
+                bad = ~np.isfinite(values).all(axis=1)
+                if alive is not None and component == "particles":
+                    bad &= alive.astype(bool)
+                if bad.any():
+                    element = int(np.flatnonzero(bad)[0])
+                    part = next(c for c in self.dynamics.components if c.name == component)
+                    raise SimulationDiverged(self.step_count, self.time, component, element,
+                                             f"non-finite {name} in frame {frame} (guard off)",
+                                             where=part.locate(element))
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """A run stopped by a signal: SIGINT (Ctrl-C) or SIGTERM (``timeout``, a scheduler, a container stop).
+
+    signal: the signal's number; exit_code: what a process should exit with, 128 + signal (130, 143)."""
+
+    def __init__(self, signum: int):
+        self.signal, self.exit_code = signum, 128 + signum
+        super().__init__(f"interrupted by {signal.Signals(signum).name}")
+
+
+@contextlib.contextmanager
+def interruptions():
+    """SIGTERM raises RunInterrupted inside the block, as Ctrl-C raises KeyboardInterrupt, so a run cleans up
+    the same way for both. Only in the main thread (where Python delivers signals); elsewhere a no-op."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum, _frame):
+        raise RunInterrupted(signum)
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)

@@ -48,6 +48,13 @@ class Particles(Component):
     def guard_inputs(self, state: State):
         return guard_kernels.check_finite_and_bounded, self.model.particle_count, [state.particle_x, state.particle_v]
 
+    def locate(self, element: int) -> str:
+        """Where global particle ``element`` belongs: its group's name and its index within the group."""
+        for name, start, count in self.model.particle_groups:
+            if start <= element < start + count:
+                return f"particle {element - start} of group {name!r}"
+        return f"particle {element}"
+
     def describe(self, state: State, element: int) -> str:
         return (f"x = {_show(state.particle_x.numpy()[element], 'm')}, "
                 f"v = {_show(state.particle_v.numpy()[element], 'm/s')}")
@@ -106,6 +113,10 @@ class RigidBodies(Component):
 
     def guard_inputs(self, state: State):
         return guard_kernels.check_bodies, self.model.body_count, [state.bodies, self.model.body_mass]
+
+    def locate(self, element: int) -> str:
+        """Body ``element`` by its name."""
+        return f"body {self.model.body_names[element]!r}"
 
     def describe(self, state: State, element: int) -> str:
         values = {name: getattr(state, name).numpy()[element] for name in ("body_x", "body_q", "body_P", "body_L")}

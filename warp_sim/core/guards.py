@@ -19,13 +19,19 @@ class SimulationDiverged(RuntimeError):
     """A simulation went non-finite or exceeded its bounds.
 
     Attributes: step (1-based index of the first bad step), time [s] at its end,
-    component (e.g. "particles"), element (index within the component), reason.
+    component (e.g. "particles"), element (global index within the component), where (the element
+    by its group and local index, or its body name), reason; frames_written and usd: set by
+    ``Simulator.run`` when it kept the frames before the bad one.
     """
 
-    def __init__(self, step: int, time: float, component: str, element: int, reason: str, detail: str = ""):
+    def __init__(self, step: int, time: float, component: str, element: int, reason: str, detail: str = "",
+                 where: str = ""):
         self.step, self.time, self.component, self.element, self.reason = step, time, component, element, reason
+        self.where = where
+        self.frames_written, self.usd = 0, None
+        located = f" ({where})" if where else ""
         super().__init__(f"simulation diverged at step {step} (t = {time:.6g} s): {component} element "
-                         f"{element}: {reason}{detail}")
+                         f"{element}{located}: {reason}{detail}")
 
 
 class Guard:
@@ -68,4 +74,4 @@ class Guard:
         detail = f" (now {component.describe(state, element)})"
         text = component.guard_reasons[reason] + (f" = {self.max_speed:g} m/s" if reason == 2 else "")
         raise SimulationDiverged(step, self.step_times.get(step, float("nan")), component.name, element,
-                                 text, detail)
+                                 text, detail, component.locate(element))

@@ -64,6 +64,9 @@ class Model:
         self.spring_count = scene.spring_count
         self.plane_count = len(scene.planes)
         self.body_count = scene.body_count
+        #: (name, first global index, count) of each particle group, and each body's name: for messages
+        self.particle_groups = [(group.name, group.start, group.count) for group in scene.particle_groups]
+        self.body_names = [body.name for body in scene.bodies]
         for name in _ARRAYS + ("springs", "planes", "particle_material", "body_mass"):
             setattr(self, name, None)
         self.blocks = blocks.of(self.scalar)

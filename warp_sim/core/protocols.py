@@ -51,6 +51,10 @@ class Component:
         the record (kernels.guards)."""
         raise NotImplementedError
 
+    def locate(self, element: int) -> str:
+        """Element ``element`` as a user knows it (its group and index there, or its name), for messages."""
+        return f"element {element}"
+
     def describe(self, state: State, element: int) -> str:
         """The current values of one element, for error messages."""
         raise NotImplementedError

@@ -42,8 +42,12 @@ class Ramp:
         k = checks.finite_array("keys", keys, (-1,))
         if len(k) < 2 or np.any(np.diff(k) < 0) or k[0] < 0 or k[-1] > 1:
             raise checks.fail("keys", keys, "expected at least two ascending normalised ages in [0, 1]")
-        v = np.asarray(values, dtype=np.float64)
-        if v.shape[0] != len(k) or not np.all(np.isfinite(v)):
+        try:
+            v = np.asarray(values, dtype=np.float64)
+        except (TypeError, ValueError):   # ragged, or not numbers
+            raise checks.fail("values", values, f"expected {len(k)} values, one per key, each a number or an RGB "
+                                                "triple, all of the same width") from None
+        if v.ndim == 0 or v.shape[0] != len(k) or not np.all(np.isfinite(v)):
             raise checks.fail("values", values, f"expected {len(k)} finite values, one per key")
         object.__setattr__(self, "keys", tuple(k))
         object.__setattr__(self, "values", tuple(map(tuple, v.reshape(len(k), -1))))
@@ -125,6 +129,12 @@ class Emitter:
         return int(math.floor(self.rate * (min(t, self.stop) - self.start) + 0.5))
 
 
+#: bytes a pool slot costs on the device and in a frame's arrays (float64 state x2, materials, pool arrays, output)
+SLOT_BYTES = 256
+#: the largest pool accepted [bytes]
+MAX_POOL_BYTES = 16 * 2**30
+
+
 def make_emitter(index: int, start_slot: int, name: str, rate, lifetime, position, direction, spread, speed,
                  shape, radius, half_extents, mesh, size, mass, color, opacity, bursts, start, stop, capacity,
                  seed, kill_planes, kill_on_contact) -> Emitter:
@@ -167,10 +177,17 @@ def make_emitter(index: int, start_slot: int, name: str, rate, lifetime, positio
         burst_list.append((float(pair[0]), int(pair[1])))
     if rate == 0.0 and not burst_list:
         raise checks.fail("rate", rate, "an emitter needs a rate > 0 or at least one burst")
+    given = capacity
     if capacity is None:
         capacity = math.ceil(rate * lifetime[1]) + 1 + sum(count for _, count in burst_list)
     elif isinstance(capacity, bool) or not isinstance(capacity, (int, np.integer)) or capacity < 1:
         raise checks.fail("capacity", capacity, "expected an integer >= 1 (or None: rate x max lifetime + bursts)")
+    if capacity * SLOT_BYTES > MAX_POOL_BYTES:
+        name, value = ("capacity", given) if given is not None else ("rate", rate)
+        raise checks.fail(name, value, f"the pool would hold {capacity:,} particles, about "
+                                       f"{capacity * SLOT_BYTES / 2**30:,.1f} GiB of state (float64) and output, above "
+                                       f"the {MAX_POOL_BYTES // 2**30} GiB bound; lower rate or lifetime, or give a "
+                                       "smaller capacity (births that find it full are skipped and counted)")
     seed_value = seed if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) else None
     if seed_value is None or not 0 <= seed_value < 2**31:
         raise checks.fail("seed", seed, "expected an integer in [0, 2^31)")

@@ -196,12 +196,13 @@ class Scene:
         infinite mass, which never move; restitution in [0, 1] and friction >= 0, where
         given, are averaged with each plane's. name and color (RGB 0..1) are for USD.
         """
-        x = checks.finite_array("positions", positions, (-1, 3))
+        x = checks.fits("positions", checks.finite_array("positions", positions, (-1, 3)), self.precision)
         count = len(x)
         if count == 0:
             raise checks.fail("positions", positions, "need at least one particle")
-        v = np.zeros_like(x) if velocities is None else checks.finite_array("velocities", velocities, (count, 3))
-        m = checks.per_element("mass", mass, count, low=0.0, low_open=True)
+        v = np.zeros_like(x) if velocities is None else checks.fits(
+            "velocities", checks.finite_array("velocities", velocities, (count, 3)), self.precision)
+        m = checks.fits("mass", checks.per_element("mass", mass, count, low=0.0, low_open=True), self.precision)
         r = checks.per_element("radius", radius, count, low=0.0)
         pin = np.zeros(count, dtype=bool)
         if pinned is not None:
@@ -212,7 +213,7 @@ class Scene:
         if restitution is not None and e.max() > 1.0:
             raise checks.fail("restitution", restitution, "must lie in [0, 1]")
         mu = np.full(count, -1.0) if friction is None else checks.per_element("friction", friction, count, low=0.0)
-        rgb = tuple(checks.finite_array("color", color, (3,)))
+        rgb = tuple(checks.unit_interval("color", color, (3,)))
         return self._append_particles(name or f"group{len(self.particle_groups)}", rgb, False,
                                       (x, v, m, r, pin, e, mu))
 
@@ -291,6 +292,7 @@ class Scene:
             k = self_loops[0]
             raise checks.fail("pairs", pairs, f"a spring must join two different particles; "
                                               f"spring {k} joins particle {p[k, 0]} to itself")
+        self._refuse_duplicate_springs(pairs, p)
         ks = checks.per_element("stiffness", stiffness, count, low=0.0)
         kd = checks.per_element("damping", damping, count, low=0.0)
         if rest_length is None:
@@ -308,6 +310,21 @@ class Scene:
         for key, chunk in zip(self._springs, (p, ks, kd, length)):
             self._springs[key].append(chunk)
         return np.arange(start, start + count)
+
+    def _refuse_duplicate_springs(self, given, pairs: np.ndarray) -> None:
+        """A ValueError naming the first pair joined twice (either way round), in this call or by an earlier one:
+        a repeated spring would double the stiffness silently."""
+        earlier = self._springs["pairs"]
+        existing = np.concatenate(earlier) if earlier else np.zeros((0, 2), np.int64)
+        combined = np.sort(np.concatenate([existing, pairs]), axis=1)
+        _, first, inverse = np.unique(combined, axis=0, return_index=True, return_inverse=True)
+        repeats = np.flatnonzero(first[inverse.ravel()] != np.arange(len(combined)))
+        if repeats.size:
+            k, original = int(repeats[0]) - len(existing), int(first[inverse.ravel()[repeats[0]]])
+            where = ("a spring added before (add_springs, a cloth or a soft body)" if original < len(existing)
+                     else f"spring {original - len(existing)} of this call")
+            raise checks.fail("pairs", given, f"spring {k} joins particles {tuple(int(i) for i in pairs[k])}, already "
+                                              f"joined by {where}; each pair may have one spring")
 
     # cloth and soft bodies -----------------------------------------------------
     def add_cloth_grid(self, resolution=(32, 32), size=(1.0, 1.0), position=(0.0, 0.0, 0.0),
@@ -418,7 +435,7 @@ class Scene:
         r = checks.per_element("radius", radius, count, low=0.0)
         e = np.full(count, -1.0 if restitution is None else checks.scalar("restitution", restitution, 0.0, 1.0))
         mu = np.full(count, -1.0 if friction is None else checks.scalar("friction", friction, low=0.0))
-        rgb = tuple(checks.finite_array("color", color, (3,)))
+        rgb = tuple(checks.unit_interval("color", color, (3,)))
         drag, lift, air_density, max_stretch = aero
         drag, lift = checks.scalar("drag", drag, low=0.0), checks.scalar("lift", lift, low=0.0)
         air_density = checks.scalar("air_density", air_density, low=0.0, low_open=True)
@@ -472,16 +489,17 @@ class Scene:
             raise checks.fail("name", label, "body names must be unique")
         body = RigidBody(
             name=label, shape=shape, mass=properties,
-            position=checks.vec3("position", position) + R @ properties.com,
+            position=checks.fits("position", checks.vec3("position", position), self.precision) + R @ properties.com,
             orientation=q,
-            momentum=properties.mass * checks.vec3("linear_velocity", linear_velocity),
+            momentum=properties.mass * checks.fits("linear_velocity", checks.vec3("linear_velocity", linear_velocity),
+                                                   self.precision),
             angular_momentum=inertia_world @ checks.vec3("angular_velocity", angular_velocity),
             drag=self.drag if drag is None else checks.scalar("drag", drag, low=0.0),
             angular_drag=self.angular_drag if angular_drag is None else checks.scalar(
                 "angular_drag", angular_drag, low=0.0),
             restitution=checks.scalar("restitution", restitution, low=0.0, high=1.0),
             friction=checks.scalar("friction", friction, low=0.0),
-            color=tuple(checks.finite_array("color", color, (3,))),
+            color=tuple(checks.unit_interval("color", color, (3,))),
         )
         self.bodies.append(body)
         self._body_names.add(label)
@@ -516,7 +534,7 @@ class Scene:
             orientation=checks.unit_quaternion("orientation", orientation),
             restitution=checks.scalar("restitution", restitution, low=0.0, high=1.0),
             friction=checks.scalar("friction", friction, low=0.0),
-            color=tuple(checks.finite_array("color", color, (3,))),
+            color=tuple(checks.unit_interval("color", color, (3,))),
         )
         if any(existing.name == collider.name for existing in self.colliders):
             raise checks.fail("name", collider.name, "collider names must be unique")

@@ -32,11 +32,20 @@ A static collider (``ColliderSpec``) is a ``UsdGeom.Xform`` at ``/World/Collider
 drawn like a body, but its translate and orient are default values, written once, with no
 time samples.
 
-The stage is built in a hidden temporary file next to the final path, saved
-every ``chunk_frames`` frames, and moved onto the final path by ``close()``
-with ``os.replace``, so the final path never holds a half-written stage. A save
-also frees the saved samples from memory: a 10^6-slot pool half alive holds
-about 30 MB per frame until then, so large pools want a small ``chunk_frames``.
+The stage is built in a hidden temporary file next to the final path
+(``.<name>.partial-<pid><ext>``), saved every ``chunk_frames`` frames. A save frees the saved
+samples from memory (a 10^6-slot pool half alive holds about 30 MB per frame until then, so
+large pools want a small ``chunk_frames``), but each save of a crate file leaves the data it
+replaces behind as dead space, so the partial file grows faster than its frames. ``close()``
+therefore exports the layer afresh (``Sdf.Layer.Export``: only live data, the size of a stage
+saved once) and moves the export onto the final path with ``os.replace``, so the final path
+never holds a half-written stage and its size is linear in the frames.
+
+The path is checked when the writer is made, before anything is simulated: its extension,
+that it is not an existing folder, that its folder can be made and written (a partial file is
+created there at once). Partial files of processes that are no longer alive (a killed run)
+are removed then. Any failure of ``close()`` (a full disk) removes every temporary file and
+raises OSError naming the user's path.
 """
 
 from __future__ import annotations
@@ -58,6 +67,33 @@ from .specs import USD_EXTENSIONS, WORLD_PATH, StageLayout
 __all__ = ["StageWriter"]
 
 
+def partial_path(path: pathlib.Path, pid: int) -> pathlib.Path:
+    """The hidden partial file of a run of process ``pid`` writing ``path``."""
+    return path.with_name(f".{path.stem}.partial-{pid}{path.suffix}")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:   # someone else's live process
+        return True
+    return True
+
+
+def remove_strays(path: pathlib.Path) -> list[pathlib.Path]:
+    """Remove the partial and export files next to ``path`` left by processes no longer alive; returns them."""
+    removed = []
+    for kind in ("partial", "export"):
+        for stray in path.parent.glob(f".{path.stem}.{kind}-*{path.suffix}"):
+            pid = stray.name[len(f".{path.stem}.{kind}-"):-len(path.suffix) or None]
+            if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+                stray.unlink(missing_ok=True)
+                removed.append(stray)
+    return removed
+
+
 class StageWriter:
     """Write an animated USD stage one frame at a time; atomic on ``close()``.
 
@@ -66,6 +102,9 @@ class StageWriter:
     """
 
     def __init__(self, path, fps: float, layout: StageLayout, chunk_frames: int = 240):
+        require(isinstance(path, (str, os.PathLike)) and str(path).strip() != "",
+                f"usd={path!r} is invalid: expected a file path ending in {', '.join(USD_EXTENSIONS)}")
+        self._given = path
         self._path = pathlib.Path(path)
         if not self._path.suffix:
             self._path = self._path.with_suffix(".usdc")   # binary crate by default
@@ -86,10 +125,23 @@ class StageWriter:
         self._pools = [w.pool for w in self._writers if w.pool is not None]
         self._frames = 0
 
-        self._path.parent.mkdir(parents=True, exist_ok=True)
-        self._tmp = self._path.with_name(f".{self._path.stem}.partial-{os.getpid()}{ext}")
+        require(not self._path.is_dir(), f"usd={str(path)!r} is invalid: it is an existing folder; give a file path "
+                                         f"such as {str(self._path / ('out' + ext))!r}")
+        try:
+            self._path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise OSError(f"cannot write {str(path)!r}: its folder cannot be made ({error.strerror})") from None
+        if not os.access(self._path.parent, os.W_OK):
+            raise OSError(f"cannot write {str(path)!r}: its folder {str(self._path.parent)!r} is not writable")
+        remove_strays(self._path)
+        self._tmp = partial_path(self._path, os.getpid())
+        self._export = self._tmp.with_name(self._tmp.name.replace(".partial-", ".export-"))
         self._tmp.unlink(missing_ok=True)
-        self._stage = Usd.Stage.CreateNew(str(self._tmp))
+        try:
+            self._stage = Usd.Stage.CreateNew(str(self._tmp))
+        except Exception as error:   # pxr.Tf.ErrorException: name the user's path, not the hidden one
+            self._tmp.unlink(missing_ok=True)
+            raise OSError(f"cannot write {str(path)!r}: {str(error).strip().splitlines()[-1]}") from None
         self._define()
 
     def _define(self) -> None:
@@ -236,22 +288,32 @@ class StageWriter:
         self._stage.Save()
 
     def close(self) -> pathlib.Path:
-        """Save the stage and move it onto the final path; returns that path."""
+        """Export the stage afresh and move it onto the final path; returns that path. On any failure (a full
+        disk) every temporary file is removed and OSError names the user's path."""
         self._check_open()
         require(self._frames > 0,
                  f"close(): no frames written to {str(self._path)!r}; an empty animation is not a stage")
-        self._save()
-        self._stage = None  # release the layer before moving its file
-        with open(self._tmp, "rb+") as f:  # data on disk before the rename makes it visible
-            os.fsync(f.fileno())
-        self._path.parent.mkdir(parents=True, exist_ok=True)
-        os.replace(self._tmp, self._path)
+        try:
+            self._stage.SetEndTimeCode(max(self._frames - 1, 0))
+            if not self._stage.GetRootLayer().Export(str(self._export)):
+                raise OSError("the USD export failed")
+            self._stage = None   # release the layer before removing its file
+            with open(self._export, "rb+") as f:   # data on disk before the rename makes it visible
+                os.fsync(f.fileno())
+            os.replace(self._export, self._path)
+        except Exception as error:   # OSError, pxr.Tf.ErrorException: one message, the user's path, nothing left
+            self.abort()
+            reason = error.strerror if isinstance(error, OSError) and error.strerror else str(error).strip()
+            raise OSError(f"cannot write {str(self._given)!r}: {reason.splitlines()[-1] if reason else error!r}") \
+                from None
+        self._tmp.unlink(missing_ok=True)
         return self._path
 
     def abort(self) -> None:
-        """Drop the temporary file; the final path is untouched. No-op once closed."""
+        """Drop the temporary files; the final path is untouched. No-op once closed."""
         self._stage = None
         self._tmp.unlink(missing_ok=True)
+        self._export.unlink(missing_ok=True)
 
     def __enter__(self) -> Self:
         return self

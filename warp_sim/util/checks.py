@@ -8,8 +8,26 @@ import numpy as np
 
 
 def _show(value) -> str:
+    """The value as a user would type it: plain numbers (0, not np.int64(0)), arrays abbreviated."""
+    if isinstance(value, np.generic):
+        value = value.item()
     text = np.array2string(np.asarray(value), threshold=6, edgeitems=2) if np.ndim(value) else repr(value)
     return text if len(text) <= 120 else text[:117] + "..."
+
+
+#: the largest magnitude each precision holds
+LARGEST = {"float32": float(np.finfo(np.float32).max), "float64": float(np.finfo(np.float64).max)}
+
+
+def fits(name: str, array, precision: str) -> np.ndarray:
+    """``array`` (numbers), refused when an entry does not fit the scene's precision (float32 ends at 3.4e38)."""
+    values = np.asarray(array, dtype=np.float64)
+    bad = np.argwhere(np.abs(values) > LARGEST[precision])
+    if len(bad):
+        where = tuple(int(j) for j in bad[0])
+        raise fail(name, array, f"entry {where} is {values[where]:g}, which does not fit the scene's precision "
+                                f"{precision} (largest {LARGEST[precision]:.3g})")
+    return values
 
 
 def fail(name: str, value, valid: str) -> ValueError:
@@ -19,6 +37,8 @@ def fail(name: str, value, valid: str) -> ValueError:
 
 def finite_array(name: str, value, shape: tuple) -> np.ndarray:
     """A float64 copy of `value` with the given shape (-1 = any length), all finite."""
+    if isinstance(value, (bool, np.bool_, str, bytes)) or np.asarray(value).dtype.kind in "bUS":
+        raise fail(name, value, f"expected numbers in an array of shape {shape}, not booleans or text")
     try:
         array = np.array(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -30,6 +50,16 @@ def finite_array(name: str, value, shape: tuple) -> np.ndarray:
     if len(bad):
         where = tuple(int(j) for j in bad[0])
         raise fail(name, value, f"every entry must be finite; entry {where} is {array[where]}")
+    return array
+
+
+def unit_interval(name: str, value, shape: tuple) -> np.ndarray:
+    """finite_array(name, value, shape) with every entry in [0, 1] (a colour or an opacity)."""
+    array = finite_array(name, value, shape)
+    bad = np.argwhere((array < 0.0) | (array > 1.0))
+    if len(bad):
+        where = tuple(int(j) for j in bad[0])
+        raise fail(name, value, f"every entry must lie in [0, 1]; entry {where} is {array[where]:g}")
     return array
 
 
@@ -49,7 +79,9 @@ def unit_vec3(name: str, value) -> np.ndarray:
 
 def scalar(name: str, value, low: float | None = None, high: float | None = None,
            low_open: bool = False) -> float:
-    """A finite real number in [low, high] (or (low, high] with low_open)."""
+    """A finite real number in [low, high] (or (low, high] with low_open): not a bool, not a string."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise fail(name, value, "expected a real number")
     try:
         number = float(value)
     except (TypeError, ValueError):
