@@ -7,6 +7,8 @@ Body-body colours come first, then the colours of manifolds against static colli
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import warp as wp
 
@@ -15,6 +17,15 @@ from ..kernels import manifolds as manifold_kernels
 from .detector import Detection
 
 ROUND = 2 * manifold_kernels.COLOURS   # colours of one colouring round, body-body then static
+
+
+@functools.cache
+def solve_order(rounds: int) -> np.ndarray:
+    """The colour indices of ``rounds`` colouring rounds in solve order: every round's body-body colours, then
+    every round's static ones."""
+    colours = manifold_kernels.COLOURS
+    base = np.arange(rounds)[:, None] * ROUND + np.arange(colours)
+    return np.concatenate([base.ravel(), (base + colours).ravel()])
 
 
 class ContactManifolds:
@@ -103,20 +114,16 @@ class ContactManifolds:
             tally = self.tally.numpy()
             if tally[-2] == 0:
                 break
-        sizes = tally[:-2].reshape(-1, 2, manifold_kernels.COLOURS)[:self.rounds]
-        # solve order: body-body colours of every round, then the static ones
-        order = np.concatenate([sizes[:, 0].ravel(), sizes[:, 1].ravel()])
-        index = np.concatenate([np.arange(self.rounds)[:, None] * ROUND + np.arange(manifold_kernels.COLOURS),
-                                np.arange(self.rounds)[:, None] * ROUND + manifold_kernels.COLOURS
-                                + np.arange(manifold_kernels.COLOURS)], axis=None)
-        firsts = np.concatenate([[0], np.cumsum(order)[:-1]]).astype(np.int32)
+        index = solve_order(self.rounds)
+        order = tally[index]                    # sizes in solve order: body-body colours of every round, then static
+        firsts = np.cumsum(order) - order
         starts = np.zeros(self._colour_capacity, np.int32)
         starts[index] = firsts
         self.starts.assign(starts)
         self.colour_cursor.zero_()
         m.launch(manifold_kernels.order_by_colour, pairs, [self.colours_of, self.starts, self.colour_cursor,
                                                           self.order])
-        used = order > 0
-        self.body_colours = int(np.count_nonzero(used[:sizes[:, 0].size]))
-        self.colours = [(int(f), int(n)) for f, n in zip(firsts[used], order[used], strict=True)]
+        used = np.flatnonzero(order)
+        self.body_colours = int(np.count_nonzero(used < self.rounds * manifold_kernels.COLOURS))
+        self.colours = list(zip(firsts[used].tolist(), order[used].tolist()))
         return self.colours, int(tally[-1])

@@ -59,7 +59,7 @@ class BodyContacts(Pass):
 
     def __init__(self, model: Model, detection: Detection, position_response: float, slop: float = 1.0e-4,
                  bounce_speed: float | None = None, sweeps: tuple[int, int, int] = (8, 16, 4),
-                 iterations: tuple[int, int, int] = (8, 2, 4), relax: float = 0.2, tolerance: float = 1.0e-4,
+                 iterations: tuple[int, int, int] = (4, 2, 2), relax: float = 0.2, tolerance: float = 1.0e-4,
                  max_step: float | None = None):
         self.model = model
         self.geometry = detection.geometry
@@ -168,7 +168,5 @@ class BodyContacts(Pass):
     def _sweep(prepared, colours: list[tuple[int, int]], sweeps: int) -> None:
         """``sweeps`` Gauss-Seidel sweeps of a prepared manifold kernel: one launch per colour, a thread per manifold
         (input 1 of the kernel is the colour's first manifold in the order)."""
-        for _ in range(sweeps):
-            for first, size in colours:
-                prepared.set(1, first)
-                prepared.run(size)
+        if colours:
+            prepared.sweep(1, colours, sweeps)
