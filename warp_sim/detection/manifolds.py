@@ -57,6 +57,7 @@ class ContactManifolds:
             P = self._pair_capacity = d.pairs.capacity
             self.counts, self.offsets, self.cursor = (m.zeros(P, wp.int32) for _ in range(3))
             self.colours_of, self.order = m.zeros(P, wp.int32), m.zeros(P, wp.int32)
+            self.quiet = m.zeros(P, wp.int32)
             grown = True
         if d.contacts.capacity > self._contact_capacity:
             C = self._contact_capacity = d.contacts.capacity
@@ -65,7 +66,7 @@ class ContactManifolds:
         if grown:
             self.set = manifold_kernels.ManifoldSet()
             self.set.row_ids, self.set.offsets, self.set.counts = self.row_ids, self.offsets, self.counts
-            self.set.order, self.set.body_count = self.order, m.body_count
+            self.set.order, self.set.quiet, self.set.body_count = self.order, self.quiet, m.body_count
         if self._colour_capacity < ROUND:
             self._allocate_colours(ROUND)
 
@@ -91,6 +92,7 @@ class ContactManifolds:
         self.cursor.zero_()
         m.launch(manifold_kernels.sort_by_pair, d.count, [contact_pair, self.offsets, self.cursor, self.slot])
         self.tally.zero_()
+        self.quiet.zero_()   # every manifold is solved in the first resting sweep
 
     def colour(self) -> tuple[list[tuple[int, int]], int]:
         """Colour the pairs (after ``sort``); returns ``colours`` and the count in ``impacts``."""

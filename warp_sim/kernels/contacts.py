@@ -12,7 +12,7 @@ from typing import Any
 import warp as wp
 
 from .detection import ContactBuffer, Geoms, is_body
-from .manifolds import ManifoldSet, manifold_rows
+from .manifolds import ManifoldSet, manifold_rows, touch, untouched
 from .planes import first_contact_time
 from .precisions import register
 from .rigid import angular_velocity
@@ -287,14 +287,8 @@ def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep
     would find no impact (exact, and most of a pile's manifolds are quiet)."""
     c, last = manifold_rows(manifolds, first, wp.tid())
     body_count = manifolds.body_count
-    if sweep > 0:
-        i = manifolds.row_ids[c][0]
-        j = manifolds.row_ids[c][1]
-        quiet = work.stamp[i] < sweep - 1
-        if is_body(j, body_count):
-            quiet = quiet and work.stamp[j] < sweep - 1
-        if quiet:
-            return
+    if sweep > 0 and untouched(manifolds, work.stamp, c, sweep):
+        return
     zero = type(bounce_speed)(0.0)
     impacts = int(0)
     for k in range(c, last):
@@ -320,11 +314,7 @@ def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep
                                         rows.collision_n[k], rows.collision_t[k])
                     rows.collision_n[k] = jn
                     rows.collision_t[k] = jt
-        for k in range(c, last):   # the bodies this manifold changed
-            pair = manifolds.row_ids[k]
-            work.stamp[pair[0]] = sweep
-            if is_body(pair[1], body_count):
-                work.stamp[pair[1]] = sweep
+        touch(manifolds, work.stamp, c, sweep)   # the bodies this manifold changed
 
 
 @wp.kernel
@@ -400,23 +390,34 @@ def solve_row(pair: wp.vec2i, body_count: int, rows: Any, mass: Any, work: Any, 
 
 
 @wp.kernel
-def solve_manifolds(manifolds: ManifoldSet, first: int, iterations: int, tolerance: Any, rows: Any, mass: Any,
-                    work: Any, residual: wp.array(dtype=Any)):
+def solve_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep: int, tolerance: Any, rows: Any,
+                    mass: Any, work: Any, residual: wp.array(dtype=Any)):
     """One sweep of resting and sliding contact over one colour of manifolds: sequential impulses
     (``solve_row``) toward a normal velocity of at least min_normal_speed at the end of the step, the
     manifold's contacts iterated together (a box's corners settle as one block, so a tall stack does not lean
     from the order in which its corners were solved), up to ``iterations`` times and until no update changes
-    a contact's velocity by more than ``tolerance`` [m/s]. residual[0]: raised to the largest change of the
-    manifold's first iteration (how far from converged this sweep found it) [m/s]."""
+    a contact's velocity by more than ``tolerance`` [m/s]. A manifold whose last update changed no velocity by
+    more than a hundredth of the tolerance, and whose bodies no such update has changed since, is skipped (``sweep`` numbers the sweeps; work.stamp). residual[0]:
+    raised to the largest change of the manifold's first iteration [m/s]."""
     c, last = manifold_rows(manifolds, first, wp.tid())
+    p = manifolds.order[first + wp.tid()]
+    if manifolds.quiet[p] == 1 and untouched(manifolds, work.stamp, c, sweep):
+        return
+    largest = type(tolerance)(0.0)
+    change = type(tolerance)(0.0)
     for iteration in range(iterations):
         change = type(tolerance)(0.0)
         for k in range(c, last):
             change = wp.max(change, solve_row(manifolds.row_ids[k], manifolds.body_count, rows, mass, work, k))
+        largest = wp.max(largest, change)
         if iteration == 0:
             wp.atomic_max(residual, 0, change)
         if change <= tolerance:
             break
+    still = tolerance * type(tolerance)(0.01)   # what counts as no change at all, for skipping
+    if largest > still:
+        touch(manifolds, work.stamp, c, sweep)
+    manifolds.quiet[p] = wp.where(change <= still, 1, 0)
 
 
 # warm starting: last step's impulses, found again by pair and anchor cell -----------------

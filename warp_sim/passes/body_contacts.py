@@ -151,8 +151,10 @@ class BodyContacts(Pass):
         self._sweep(m.launcher.prepare(contact_kernels.warm_start_manifolds, 1, [
             manifolds.set, 0, rows, mass, work]), colours, 1)
         solve = m.launcher.prepare(contact_kernels.solve_manifolds, 1, [
-            manifolds.set, 0, contact_iterations, T(self.tolerance), rows, mass, work, self.residual])
-        self._sweep(solve, colours, contact_sweeps)
+            manifolds.set, 0, contact_iterations, 0, T(self.tolerance), rows, mass, work, self.residual])
+        for sweep in range(contact_sweeps):   # numbered after the collision sweeps, whose stamps they follow
+            solve.set(3, collision_sweeps + 1 + sweep)
+            self._sweep(solve, colours, 1)
         table.used.zero_()
         m.launch(contact_kernels.remember_impulses, count, [geoms, c.ids, slot, rows, table])
         m.launch(contact_kernels.finish_response, B, [T(h), T(self.position_response), mass, self.collided, work,
