@@ -7,6 +7,8 @@ Body-body colours come first, then the colours of manifolds against static colli
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import warp as wp
 
@@ -15,6 +17,15 @@ from ..kernels import manifolds as manifold_kernels
 from .detector import Detection
 
 ROUND = 2 * manifold_kernels.COLOURS   # colours of one colouring round, body-body then static
+
+
+@functools.cache
+def solve_order(rounds: int) -> np.ndarray:
+    """The colour indices of ``rounds`` colouring rounds in solve order: every round's body-body colours, then
+    every round's static ones."""
+    colours = manifold_kernels.COLOURS
+    base = np.arange(rounds)[:, None] * ROUND + np.arange(colours)
+    return np.concatenate([base.ravel(), (base + colours).ravel()])
 
 
 class ContactManifolds:
@@ -46,6 +57,7 @@ class ContactManifolds:
             P = self._pair_capacity = d.pairs.capacity
             self.counts, self.offsets, self.cursor = (m.zeros(P, wp.int32) for _ in range(3))
             self.colours_of, self.order = m.zeros(P, wp.int32), m.zeros(P, wp.int32)
+            self.quiet = m.zeros(P, wp.int32)
             grown = True
         if d.contacts.capacity > self._contact_capacity:
             C = self._contact_capacity = d.contacts.capacity
@@ -54,7 +66,7 @@ class ContactManifolds:
         if grown:
             self.set = manifold_kernels.ManifoldSet()
             self.set.row_ids, self.set.offsets, self.set.counts = self.row_ids, self.offsets, self.counts
-            self.set.order, self.set.body_count = self.order, m.body_count
+            self.set.order, self.set.quiet, self.set.body_count = self.order, self.quiet, m.body_count
         if self._colour_capacity < ROUND:
             self._allocate_colours(ROUND)
 
@@ -80,6 +92,7 @@ class ContactManifolds:
         self.cursor.zero_()
         m.launch(manifold_kernels.sort_by_pair, d.count, [contact_pair, self.offsets, self.cursor, self.slot])
         self.tally.zero_()
+        self.quiet.zero_()   # every manifold is solved in the first resting sweep
 
     def colour(self) -> tuple[list[tuple[int, int]], int]:
         """Colour the pairs (after ``sort``); returns ``colours`` and the count in ``impacts``."""
@@ -103,20 +116,16 @@ class ContactManifolds:
             tally = self.tally.numpy()
             if tally[-2] == 0:
                 break
-        sizes = tally[:-2].reshape(-1, 2, manifold_kernels.COLOURS)[:self.rounds]
-        # solve order: body-body colours of every round, then the static ones
-        order = np.concatenate([sizes[:, 0].ravel(), sizes[:, 1].ravel()])
-        index = np.concatenate([np.arange(self.rounds)[:, None] * ROUND + np.arange(manifold_kernels.COLOURS),
-                                np.arange(self.rounds)[:, None] * ROUND + manifold_kernels.COLOURS
-                                + np.arange(manifold_kernels.COLOURS)], axis=None)
-        firsts = np.concatenate([[0], np.cumsum(order)[:-1]]).astype(np.int32)
+        index = solve_order(self.rounds)
+        order = tally[index]                    # sizes in solve order: body-body colours of every round, then static
+        firsts = np.cumsum(order) - order
         starts = np.zeros(self._colour_capacity, np.int32)
         starts[index] = firsts
         self.starts.assign(starts)
         self.colour_cursor.zero_()
         m.launch(manifold_kernels.order_by_colour, pairs, [self.colours_of, self.starts, self.colour_cursor,
                                                           self.order])
-        used = order > 0
-        self.body_colours = int(np.count_nonzero(used[:sizes[:, 0].size]))
-        self.colours = [(int(f), int(n)) for f, n in zip(firsts[used], order[used], strict=True)]
+        used = np.flatnonzero(order)
+        self.body_colours = int(np.count_nonzero(used < self.rounds * manifold_kernels.COLOURS))
+        self.colours = list(zip(firsts[used].tolist(), order[used].tolist()))
         return self.colours, int(tally[-1])

@@ -14,7 +14,8 @@ structs of one precision (``of(wp.float64).Springs()``); each field's dtype and 
 - ParticleMaterial: inv_mass [1/kg] (0: pinned), radius [m], restitution [1] and friction [1]
   (empty arrays where no particle has its own value; else per particle, < 0 meaning "none")
 - BodyVelocities (the contact response's working set): v [m/s], w [rad/s] (vec3), inv_inertia_world
-  [1/(kg m^2)] (mat33), impact: the earliest impact of each body as a fraction of the step [1]
+  [1/(kg m^2)] (mat33), impact: the earliest impact of each body as a fraction of the step [1], stamp: the
+  last collision sweep that changed the body's velocity (int32, -1: none)
 - ContactRows (one row per contact): anchor1, anchor2 [m] (body frames), rounding1, rounding2 [m],
   normal (unit vec3), impact_time [s], after_impact [m/s], min_normal_speed [m/s], restitution [1],
   friction [1], impulse_n [N s], impulse_t [N s] (vec3), target [m/s], collision_n [N s], collision_t [N s],
@@ -41,7 +42,8 @@ LAYOUTS = {
     "Springs": {"pairs": wp.vec2i, "stiffness": "scalar", "damping": "scalar", "rest_length": "scalar"},
     "Planes": {"normal": "vec3", "offset": "scalar", "restitution": "scalar", "friction": "scalar"},
     "ParticleMaterial": {"inv_mass": "scalar", "radius": "scalar", "restitution": "scalar", "friction": "scalar"},
-    "BodyVelocities": {"v": "vec3", "w": "vec3", "inv_inertia_world": "mat33", "impact": "scalar"},
+    "BodyVelocities": {"v": "vec3", "w": "vec3", "inv_inertia_world": "mat33", "impact": "scalar",
+                       "stamp": wp.int32},
     "ContactRows": {"anchor1": "vec3", "anchor2": "vec3", "rounding1": "scalar", "rounding2": "scalar",
                     "normal": "vec3", "impact_time": "scalar", "after_impact": "scalar", "min_normal_speed": "scalar",
                     "restitution": "scalar", "friction": "scalar", "impulse_n": "scalar", "impulse_t": "vec3",

@@ -12,7 +12,7 @@ from typing import Any
 import warp as wp
 
 from .detection import ContactBuffer, Geoms, is_body
-from .manifolds import ManifoldSet, manifold_rows
+from .manifolds import ManifoldSet, manifold_rows, touch, untouched
 from .planes import first_contact_time
 from .precisions import register
 from .rigid import angular_velocity
@@ -160,6 +160,7 @@ def load_velocities(bodies: Any, mass: Any, work: Any):
     work.v[i] = bodies.P[i] * mass.inv_mass[i]
     work.w[i] = inv_world * bodies.L[i]
     work.impact[i] = type(mass.inv_mass[i])(2.0)
+    work.stamp[i] = -1
 
 
 @wp.func
@@ -270,8 +271,8 @@ def accumulate(pair: wp.vec2i, body_count: int, work: Any, mass: Any, r1: Any, r
 
 
 @wp.kernel
-def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, h: Any, start: Any, end: Any, rows: Any,
-                      mass: Any, work: Any, bounce_speed: Any):
+def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep: int, h: Any, start: Any, end: Any,
+                      rows: Any, mass: Any, work: Any, bounce_speed: Any):
     """One sweep of collisions over one colour of manifolds, a thread each (graph-coloured Gauss-Seidel; the
     sweeps repeat so that impacts propagate through touching bodies, as in Newton's cradle). A manifold whose
     contacts approach faster than bounce_speed at their time of impact collides: each such contact must leave
@@ -279,9 +280,15 @@ def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, h: An
     the lecture's impulse j = -(1 + e) u / (1/M1 + 1/M2 + n . ((I1^-1 (r1 x n)) x r1) + n . ((I2^-1 (r2 x n))
     x r2)), with Coulomb friction up to mu j. The contacts of one manifold (a box landing flat: four corners)
     are solved together, by accumulated impulses iterated ``iterations`` times, so simultaneous contacts share
-    the impulse instead of the first one taking it all and spinning the body."""
+    the impulse instead of the first one taking it all and spinning the body.
+
+    After the first sweep a manifold is looked at again only if an impulse of the sweep before or of this one
+    changed one of its bodies (work.stamp): otherwise its contacts stand as it left them, separating, and it
+    would find no impact (exact, and most of a pile's manifolds are quiet)."""
     c, last = manifold_rows(manifolds, first, wp.tid())
     body_count = manifolds.body_count
+    if sweep > 0 and untouched(manifolds, work.stamp, c, sweep):
+        return
     zero = type(bounce_speed)(0.0)
     impacts = int(0)
     for k in range(c, last):
@@ -307,6 +314,7 @@ def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, h: An
                                         rows.collision_n[k], rows.collision_t[k])
                     rows.collision_n[k] = jn
                     rows.collision_t[k] = jt
+        touch(manifolds, work.stamp, c, sweep)   # the bodies this manifold changed
 
 
 @wp.kernel
@@ -382,23 +390,34 @@ def solve_row(pair: wp.vec2i, body_count: int, rows: Any, mass: Any, work: Any, 
 
 
 @wp.kernel
-def solve_manifolds(manifolds: ManifoldSet, first: int, iterations: int, tolerance: Any, rows: Any, mass: Any,
-                    work: Any, residual: wp.array(dtype=Any)):
+def solve_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep: int, tolerance: Any, rows: Any,
+                    mass: Any, work: Any, residual: wp.array(dtype=Any)):
     """One sweep of resting and sliding contact over one colour of manifolds: sequential impulses
     (``solve_row``) toward a normal velocity of at least min_normal_speed at the end of the step, the
     manifold's contacts iterated together (a box's corners settle as one block, so a tall stack does not lean
     from the order in which its corners were solved), up to ``iterations`` times and until no update changes
-    a contact's velocity by more than ``tolerance`` [m/s]. residual[0]: raised to the largest change of the
-    manifold's first iteration (how far from converged this sweep found it) [m/s]."""
+    a contact's velocity by more than ``tolerance`` [m/s]. A manifold whose last update changed no velocity by
+    more than a hundredth of the tolerance, and whose bodies no such update has changed since, is skipped (``sweep`` numbers the sweeps; work.stamp). residual[0]:
+    raised to the largest change of the manifold's first iteration [m/s]."""
     c, last = manifold_rows(manifolds, first, wp.tid())
+    p = manifolds.order[first + wp.tid()]
+    if manifolds.quiet[p] == 1 and untouched(manifolds, work.stamp, c, sweep):
+        return
+    largest = type(tolerance)(0.0)
+    change = type(tolerance)(0.0)
     for iteration in range(iterations):
         change = type(tolerance)(0.0)
         for k in range(c, last):
             change = wp.max(change, solve_row(manifolds.row_ids[k], manifolds.body_count, rows, mass, work, k))
+        largest = wp.max(largest, change)
         if iteration == 0:
             wp.atomic_max(residual, 0, change)
         if change <= tolerance:
             break
+    still = tolerance * type(tolerance)(0.01)   # what counts as no change at all, for skipping
+    if largest > still:
+        touch(manifolds, work.stamp, c, sweep)
+    manifolds.quiet[p] = wp.where(change <= still, 1, 0)
 
 
 # warm starting: last step's impulses, found again by pair and anchor cell -----------------

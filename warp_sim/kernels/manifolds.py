@@ -38,6 +38,7 @@ class ManifoldSet:
     offsets: wp.array(dtype=wp.int32)
     counts: wp.array(dtype=wp.int32)
     order: wp.array(dtype=wp.int32)
+    quiet: wp.array(dtype=wp.int32)          # per pair: 1 once a resting sweep left it converged
     body_count: int
 
 
@@ -47,6 +48,26 @@ def manifold_rows(m: ManifoldSet, first: int, thread: int):
     p = m.order[first + thread]
     start = m.offsets[p]
     return start, start + m.counts[p]
+
+
+@wp.func
+def untouched(m: ManifoldSet, stamp: wp.array(dtype=wp.int32), row: int, sweep: int):
+    """Whether no impulse changed the bodies of the manifold holding ``row`` since the sweep before ``sweep``
+    (stamp: per body, the last sweep that changed it)."""
+    i = m.row_ids[row][0]
+    j = m.row_ids[row][1]
+    quiet = stamp[i] < sweep - 1
+    if is_body(j, m.body_count):
+        quiet = quiet and stamp[j] < sweep - 1
+    return quiet
+
+
+@wp.func
+def touch(m: ManifoldSet, stamp: wp.array(dtype=wp.int32), row: int, sweep: int):
+    """Mark the bodies of the manifold holding ``row`` as changed in ``sweep``."""
+    stamp[m.row_ids[row][0]] = sweep
+    if is_body(m.row_ids[row][1], m.body_count):
+        stamp[m.row_ids[row][1]] = sweep
 
 
 @wp.kernel

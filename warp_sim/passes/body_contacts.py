@@ -59,7 +59,7 @@ class BodyContacts(Pass):
 
     def __init__(self, model: Model, detection: Detection, position_response: float, slop: float = 1.0e-4,
                  bounce_speed: float | None = None, sweeps: tuple[int, int, int] = (8, 16, 4),
-                 iterations: tuple[int, int, int] = (8, 2, 4), relax: float = 0.2, tolerance: float = 1.0e-4,
+                 iterations: tuple[int, int, int] = (8, 2, 2), relax: float = 0.2, tolerance: float = 1.0e-4,
                  max_step: float | None = None):
         self.model = model
         self.geometry = detection.geometry
@@ -78,10 +78,11 @@ class BodyContacts(Pass):
         vec3, mat33, scalar = model.vec3, model.mat33, model.scalar
         zeros = model.zeros
         self.work = blocks.fill(model.blocks.BodyVelocities, v=zeros(B, vec3), w=zeros(B, vec3),
-                                inv_inertia_world=zeros(B, mat33), impact=zeros(B, scalar))
-        # the velocities after the collision phase (the same inertia and impacts as the working set)
+                                inv_inertia_world=zeros(B, mat33), impact=zeros(B, scalar), stamp=zeros(B, wp.int32))
+        # the velocities after the collision phase (the same inertia, impacts and stamps as the working set)
         self.collided = blocks.fill(model.blocks.BodyVelocities, v=zeros(B, vec3), w=zeros(B, vec3),
-                                    inv_inertia_world=self.work.inv_inertia_world, impact=self.work.impact)
+                                    inv_inertia_world=self.work.inv_inertia_world, impact=self.work.impact,
+                                    stamp=self.work.stamp)
         self._capacity = 0
         self._ensure(self.detection.contacts.capacity)
 
@@ -139,16 +140,21 @@ class BodyContacts(Pass):
                                                               position_iterations) = self.sweeps, self.iterations
         if impacts:
             collide = m.launcher.prepare(contact_kernels.collide_manifolds, 1, [
-                manifolds.set, 0, collision_iterations, T(h), start.bodies, end.bodies, rows, mass, work, T(bounce)])
-            self._sweep(collide, colours, collision_sweeps)
+                manifolds.set, 0, collision_iterations, 0, T(h), start.bodies, end.bodies, rows, mass, work,
+                T(bounce)])
+            for sweep in range(collision_sweeps):
+                collide.set(3, sweep)
+                self._sweep(collide, colours, 1)
         wp.copy(self.collided.v, work.v)
         wp.copy(self.collided.w, work.w)
         m.launch(contact_kernels.prepare_rows, count, [count, manifolds.row_ids, B, end.bodies, rows, mass, work])
         self._sweep(m.launcher.prepare(contact_kernels.warm_start_manifolds, 1, [
             manifolds.set, 0, rows, mass, work]), colours, 1)
         solve = m.launcher.prepare(contact_kernels.solve_manifolds, 1, [
-            manifolds.set, 0, contact_iterations, T(self.tolerance), rows, mass, work, self.residual])
-        self._sweep(solve, colours, contact_sweeps)
+            manifolds.set, 0, contact_iterations, 0, T(self.tolerance), rows, mass, work, self.residual])
+        for sweep in range(contact_sweeps):   # numbered after the collision sweeps, whose stamps they follow
+            solve.set(3, collision_sweeps + 1 + sweep)
+            self._sweep(solve, colours, 1)
         table.used.zero_()
         m.launch(contact_kernels.remember_impulses, count, [geoms, c.ids, slot, rows, table])
         m.launch(contact_kernels.finish_response, B, [T(h), T(self.position_response), mass, self.collided, work,
@@ -168,7 +174,5 @@ class BodyContacts(Pass):
     def _sweep(prepared, colours: list[tuple[int, int]], sweeps: int) -> None:
         """``sweeps`` Gauss-Seidel sweeps of a prepared manifold kernel: one launch per colour, a thread per manifold
         (input 1 of the kernel is the colour's first manifold in the order)."""
-        for _ in range(sweeps):
-            for first, size in colours:
-                prepared.set(1, first)
-                prepared.run(size)
+        if colours:
+            prepared.sweep(1, colours, sweeps)
