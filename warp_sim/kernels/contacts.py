@@ -516,15 +516,21 @@ def finish_response(h: Any, position_response: Any, mass: Any, collided: Any, wo
 
 
 @wp.kernel
-def project_manifolds(manifolds: ManifoldSet, first: int, iterations: int, rows: Any, mass: Any, slop: Any,
-                      relax: Any, end: Any):
+def project_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep: int, rows: Any, mass: Any,
+                      slop: Any, relax: Any, end: Any, stamp: wp.array(dtype=wp.int32)):
     """One sweep of the position projection over one colour of manifolds: push overlapping bodies apart along
     the contact normals, ``relax`` of the way to within ``slop`` [m] of touching, positions only (velocities
     untouched, so no energy is added), the manifold's contacts iterated together up to ``iterations`` times,
-    until none is deeper than ``slop``."""
+    until none is deeper than ``slop``. A manifold that found nothing to push last time, and whose bodies no
+    push has moved since (``sweep`` numbers the sweeps; stamp: per body, the last sweep that moved it), is
+    skipped (exact)."""
     c0, last = manifold_rows(manifolds, first, wp.tid())
+    p = manifolds.order[first + wp.tid()]
+    if manifolds.quiet[p] == 1 and untouched(manifolds, stamp, c0, sweep):
+        return
     body_count = manifolds.body_count
     zero = type(slop)(0.0)
+    pushed = int(0)
     for _iteration in range(iterations):
         deepest = zero
         for c in range(c0, last):
@@ -538,6 +544,7 @@ def project_manifolds(manifolds: ManifoldSet, first: int, iterations: int, rows:
                 p2 = end.x[j] + r2
             depth = -wp.dot(n, end.x[i] + r1 - p2) - slop
             if depth > zero:
+                pushed = 1
                 deepest = wp.max(deepest, depth)
                 R1 = wp.quat_to_matrix(wp.normalize(end.q[i]))
                 inv1 = R1 * mass.inv_inertia[i] * wp.transpose(R1)
@@ -555,6 +562,9 @@ def project_manifolds(manifolds: ManifoldSet, first: int, iterations: int, rows:
                     end.q[j] = turn(end.q[j], -(inv2 * wp.cross(r2, n)) * push)
         if deepest == zero:
             break
+    if pushed == 1:
+        touch(manifolds, stamp, c0, sweep)
+    manifolds.quiet[p] = 1 - pushed
 
 
 register(globals())

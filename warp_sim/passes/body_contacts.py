@@ -162,12 +162,16 @@ class BodyContacts(Pass):
         # positions: the body-body colours relaxed, the static ones in full, last
         body_colours = manifolds.body_colours
         project = m.launcher.prepare(contact_kernels.project_manifolds, 1, [
-            manifolds.set, 0, position_iterations, rows, mass, T(self.slop), T(self.relax), end.bodies])
+            manifolds.set, 0, position_iterations, 0, rows, mass, T(self.slop), T(self.relax), end.bodies,
+            work.stamp])
         relax, full = T(self.relax), T(1.0)
-        for _ in range(position_sweeps):
-            project.set(6, relax)
+        manifolds.quiet.zero_()      # every manifold is looked at in the first position sweep
+        work.stamp.fill_(-1)
+        for sweep in range(position_sweeps):
+            project.set(3, sweep)
+            project.set(7, relax)
             self._sweep(project, colours[:body_colours], 1)
-            project.set(6, full)
+            project.set(7, full)
             self._sweep(project, colours[body_colours:], 1)
 
     @staticmethod
