@@ -146,7 +146,8 @@ def test_a_signal_stops_the_run_cleanly(tmp_path, signum):
     cli.send_signal(signum)
     _, err = cli.communicate(timeout=120)
     assert cli.returncode == 128 + signum
-    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    lines = [line for line in err.strip().splitlines() if not line.startswith("Warp CUDA warning")]   # no driver here
+    assert len(lines) == 1 and lines[0].startswith("warp-sim: interrupted") and "Traceback" not in err, err
     assert list(tmp_path.iterdir()) == []
 
 
@@ -180,7 +181,7 @@ def test_divergence_names_the_group_and_its_local_index():
 
 
 def test_rk45_warns_when_a_frame_takes_over_a_thousand_steps():
-    scene = ws.Scene(gravity=(0.0, 0.0, 0.0))
+    scene = ws.Scene(gravity=(0.0, 0.0, 0.0), precision="float64")
     scene.add_particles([[0.0, 0.0, 0.0], [1.1, 0.0, 0.0]], pinned=[0])
     scene.add_springs([[0, 1]], stiffness=1e7, rest_length=1.0)
     sim = ws.Simulator(scene, integrator=ws.RK45(rtol=1e-9, atol=1e-12))

@@ -11,7 +11,10 @@ def _show(value) -> str:
     """The value as a user would type it: plain numbers (0, not np.int64(0)), arrays abbreviated."""
     if isinstance(value, np.generic):
         value = value.item()
-    text = np.array2string(np.asarray(value), threshold=6, edgeitems=2) if np.ndim(value) else repr(value)
+    try:
+        text = np.array2string(np.asarray(value), threshold=6, edgeitems=2) if np.ndim(value) else repr(value)
+    except ValueError:   # ragged: not an array
+        text = repr(value)
     return text if len(text) <= 120 else text[:117] + "..."
 
 
