@@ -397,8 +397,9 @@ def solve_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep: 
     manifold's contacts iterated together (a box's corners settle as one block, so a tall stack does not lean
     from the order in which its corners were solved), up to ``iterations`` times and until no update changes
     a contact's velocity by more than ``tolerance`` [m/s]. A manifold whose last update changed no velocity by
-    more than a hundredth of the tolerance, and whose bodies no such update has changed since, is skipped (``sweep`` numbers the sweeps; work.stamp). residual[0]:
-    raised to the largest change of the manifold's first iteration [m/s]."""
+    more than a hundredth of the tolerance, and whose bodies no such update has changed since, is skipped
+    (``sweep`` numbers the sweeps; work.stamp). residual[0]: raised to the largest change of the manifold's
+    first iteration [m/s]."""
     c, last = manifold_rows(manifolds, first, wp.tid())
     p = manifolds.order[first + wp.tid()]
     if manifolds.quiet[p] == 1 and untouched(manifolds, work.stamp, c, sweep):
