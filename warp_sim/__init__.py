@@ -2,7 +2,7 @@
 
 The public API: build a Scene, run it with a Simulator, read the State or the USD stage.
 """
-from .verbosity import set_verbose  # first: Warp stays quiet unless asked (ws.set_verbose(True))  # noqa: I001
+from .util.verbosity import set_verbose  # first: Warp stays quiet unless asked (ws.set_verbose(True))  # noqa: I001
 from .core import Control, Model, SimulationDiverged, State
 from .scene import (
                     Attractor,

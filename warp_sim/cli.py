@@ -12,7 +12,7 @@ from .demo import demo_scene
 from .simulator import RunInterrupted, Simulator
 from .solvers import INTEGRATORS, RK45
 from .studies import CASES, PROBLEMS
-from .verbosity import set_verbose
+from .util.verbosity import set_verbose
 
 
 def _integrator(args):

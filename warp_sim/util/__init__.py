@@ -1,1 +1,1 @@
-"""The bottom layer: input checks and host-side rotation helpers (numpy only, no Warp)."""
+"""The bottom layer: input checks, host-side rotation helpers (numpy only), and how much Warp prints."""
