@@ -196,6 +196,7 @@ def test_rk45_warns_when_a_frame_takes_over_a_thousand_steps():
     (lambda s: s.add_particles([[1e300, 0, 0]]), "positions"),
     (lambda s: s.add_emitter(rate=1e9), "rate"),
     (lambda s: ws.Ramp([0, 1], [1.0, (1.0, 2.0, 3.0)]), "values"),
+    (lambda s: s.add_emitter(kill_planes=[0]), "kill_planes"),
 ])
 def test_bad_scene_input_names_the_argument(call, argument):
     scene = ws.Scene()

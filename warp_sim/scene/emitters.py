@@ -192,9 +192,11 @@ def make_emitter(index: int, start_slot: int, name: str, rate, lifetime, positio
     if seed_value is None or not 0 <= seed_value < 2**31:
         raise checks.fail("seed", seed, "expected an integer in [0, 2^31)")
     planes = []
+    if not isinstance(kill_planes, (list, tuple)):
+        raise checks.fail("kill_planes", kill_planes, "expected a list of (normal, offset) planes")
     for plane in kill_planes:
-        if len(plane) != 2:
-            raise checks.fail("kill_planes", kill_planes, "each kill plane is (normal, offset)")
+        if not isinstance(plane, (list, tuple)) or len(plane) != 2:
+            raise checks.fail("kill_planes", kill_planes, "each kill plane is (normal, offset), e.g. ((0, 1, 0), -1)")
         planes.append((checks.unit_vec3("kill_planes", plane[0]), checks.scalar("kill_planes", plane[1])))
     return Emitter(name=name, index=index, start_slot=start_slot, capacity=int(capacity), rate=rate,
                    bursts=tuple(burst_list), start=start, stop=stop, shape=shape, position=position, direction=axis,
