@@ -15,7 +15,7 @@ structs of one precision (``of(wp.float64).Springs()``); each field's dtype and 
   (empty arrays where no particle has its own value; else per particle, < 0 meaning "none")
 - BodyVelocities (the contact response's working set): v [m/s], w [rad/s] (vec3), inv_inertia_world
   [1/(kg m^2)] (mat33), impact: the earliest impact of each body as a fraction of the step [1], stamp: the
-  last collision sweep that changed the body's velocity (int32, -1: none)
+  last sweep that changed the body (int32, -1: none; the sweeps skip manifolds nothing changed)
 - ContactRows (one row per contact): anchor1, anchor2 [m] (body frames), rounding1, rounding2 [m],
   normal (unit vec3), impact_time [s], after_impact [m/s], min_normal_speed [m/s], restitution [1],
   friction [1], impulse_n [N s], impulse_t [N s] (vec3), target [m/s], collision_n [N s], collision_t [N s],
