@@ -318,13 +318,10 @@ def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep
 
 
 @wp.kernel
-def prepare_rows(count: int, row_ids: wp.array(dtype=wp.vec2i), body_count: int, end: Any, rows: Any, mass: Any,
-                 work: Any):
+def prepare_rows(row_ids: wp.array(dtype=wp.vec2i), body_count: int, end: Any, rows: Any, mass: Any, work: Any):
     """Per row, what the resting solve keeps fixed: the levers at the end poses, a tangent basis (tangent1 along
     the sliding velocity, if any), and the effective masses along n and the tangents (Box2D's contact points)."""
     k = wp.tid()
-    if k >= count:
-        return
     pair = row_ids[k]
     r1, r2 = contact_levers(pair, body_count, end.q, rows, k)
     n = rows.normal[k]
@@ -391,28 +388,25 @@ def solve_row(pair: wp.vec2i, body_count: int, rows: Any, mass: Any, work: Any, 
 
 @wp.kernel
 def solve_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep: int, tolerance: Any, rows: Any,
-                    mass: Any, work: Any, residual: wp.array(dtype=Any)):
+                    mass: Any, work: Any):
     """One sweep of resting and sliding contact over one colour of manifolds: sequential impulses
     (``solve_row``) toward a normal velocity of at least min_normal_speed at the end of the step, the
     manifold's contacts iterated together (a box's corners settle as one block, so a tall stack does not lean
     from the order in which its corners were solved), up to ``iterations`` times and until no update changes
     a contact's velocity by more than ``tolerance`` [m/s]. A manifold whose last update changed no velocity by
     more than a hundredth of the tolerance, and whose bodies no such update has changed since, is skipped
-    (``sweep`` numbers the sweeps; work.stamp). residual[0]: raised to the largest change of the manifold's
-    first iteration [m/s]."""
+    (``sweep`` numbers the sweeps; work.stamp)."""
     c, last = manifold_rows(manifolds, first, wp.tid())
     p = manifolds.order[first + wp.tid()]
     if manifolds.quiet[p] == 1 and untouched(manifolds, work.stamp, c, sweep):
         return
     largest = type(tolerance)(0.0)
     change = type(tolerance)(0.0)
-    for iteration in range(iterations):
+    for _iteration in range(iterations):
         change = type(tolerance)(0.0)
         for k in range(c, last):
             change = wp.max(change, solve_row(manifolds.row_ids[k], manifolds.body_count, rows, mass, work, k))
         largest = wp.max(largest, change)
-        if iteration == 0:
-            wp.atomic_max(residual, 0, change)
         if change <= tolerance:
             break
     still = tolerance * type(tolerance)(0.01)   # what counts as no change at all, for skipping

@@ -72,7 +72,6 @@ class BodyContacts(Pass):
         self.relax = relax
         self.tolerance = tolerance
         self.max_step = max_step
-        self.residual = model.zeros(1)   # the resting solve's largest change in its sweeps [m/s]
         self.position_response = position_response
         B = model.body_count
         vec3, mat33, scalar = model.vec3, model.mat33, model.scalar
@@ -147,11 +146,11 @@ class BodyContacts(Pass):
                 self._sweep(collide, colours, 1)
         wp.copy(self.collided.v, work.v)
         wp.copy(self.collided.w, work.w)
-        m.launch(contact_kernels.prepare_rows, count, [count, manifolds.row_ids, B, end.bodies, rows, mass, work])
+        m.launch(contact_kernels.prepare_rows, count, [manifolds.row_ids, B, end.bodies, rows, mass, work])
         self._sweep(m.launcher.prepare(contact_kernels.warm_start_manifolds, 1, [
             manifolds.set, 0, rows, mass, work]), colours, 1)
         solve = m.launcher.prepare(contact_kernels.solve_manifolds, 1, [
-            manifolds.set, 0, contact_iterations, 0, T(self.tolerance), rows, mass, work, self.residual])
+            manifolds.set, 0, contact_iterations, 0, T(self.tolerance), rows, mass, work])
         for sweep in range(contact_sweeps):   # numbered after the collision sweeps, whose stamps they follow
             solve.set(3, collision_sweeps + 1 + sweep)
             self._sweep(solve, colours, 1)
