@@ -1,12 +1,9 @@
 """Long runs that fail cleanly: the USD file grows linearly, bad output paths fail before simulating, a close that
-fails leaves nothing, SIGTERM and Ctrl-C clean up and exit 143 and 130, strays of dead runs are removed,
-guard=False keeps the frames before a bad one, and the command line prints one line per expected failure."""
+fails leaves nothing, strays of dead runs are removed, guard=False keeps the frames before a bad one, the command
+line prints one line per expected failure, and bad input is refused (checkpoints and resume: test_resume.py)."""
 import os
-import signal
 import subprocess
 import sys
-import textwrap
-import time
 
 import numpy as np
 import pytest
@@ -14,7 +11,7 @@ from pxr import Sdf, Usd
 
 import warp_sim as ws
 from warp_sim.cli import main
-from warp_sim.stages.writer import partial_path
+from warp_sim.stages.runs import run_folder
 
 
 def particles(count=100, precision="float32"):
@@ -80,10 +77,11 @@ def test_failed_close_leaves_nothing(tmp_path, monkeypatch):
 def test_strays_of_dead_runs_are_removed_and_live_ones_kept(tmp_path):
     out = tmp_path / "out.usdc"
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
-    stray = partial_path(out, int(dead.stdout))
-    stray.write_bytes(b"left by a killed run")
-    alive = partial_path(out, os.getppid())
-    alive.write_bytes(b"a run still going")
+    stray = run_folder(out, int(dead.stdout))
+    stray.mkdir()
+    (stray / "chunk-000000.usdc").write_bytes(b"left by a killed run")
+    alive = run_folder(out, os.getppid())
+    alive.mkdir()
     ws.Simulator(particles(4)).run(0.05, usd=out, progress=False)
     assert not stray.exists() and alive.exists()
 
@@ -104,51 +102,6 @@ def test_guard_off_keeps_the_frames_before_a_non_finite_one(tmp_path):
     times = points.GetTimeSamples()
     assert len(times) == kept
     assert all(np.isfinite(np.array(points.Get(t))).all() for t in times)
-
-
-RUN = textwrap.dedent("""
-    import sys, numpy as np, warp_sim as ws
-    scene = ws.Scene()
-    scene.add_particles(np.zeros((10, 3)) + [0, 1, 0])
-    sim = ws.Simulator(scene)
-    print("ready", flush=True)
-    sim.run(1e4, fps=60, substeps=1, usd=sys.argv[1], progress=False)
-""")
-
-
-def wait_for(folder, prefix):
-    """Until a partial file starting with ``prefix`` exists, then a second more (the run is under way)."""
-    deadline = time.monotonic() + 120.0
-    while not any(p.name.startswith(prefix) for p in folder.iterdir()):
-        assert time.monotonic() < deadline
-        time.sleep(0.05)
-    time.sleep(1.0)
-
-
-@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
-def test_a_signal_stops_the_run_cleanly(tmp_path, signum):
-    """SIGTERM (timeout, schedulers, container stops) and Ctrl-C end a run like any interruption: no partial file
-    is left, and the command line exits 143 or 130 with one line."""
-    out = tmp_path / "sig.usdc"
-    process = subprocess.Popen([sys.executable, "-c", RUN, str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               text=True)
-    assert process.stdout.readline().strip() == "ready"
-    wait_for(tmp_path, ".sig.partial")
-    process.send_signal(signum)
-    _, err = process.communicate(timeout=120)
-    assert process.returncode != 0
-    assert list(tmp_path.iterdir()) == []
-    cli = subprocess.Popen([sys.executable, "-m", "warp_sim.cli", "demo", "--seconds", "1000", "--out",
-                            str(tmp_path / "demo.usdc"), "--no-progress"], stdout=subprocess.PIPE,
-                           stderr=subprocess.PIPE, text=True)
-    assert cli.stdout.readline().startswith("warp-sim demo:")
-    wait_for(tmp_path, ".demo.partial")
-    cli.send_signal(signum)
-    _, err = cli.communicate(timeout=120)
-    assert cli.returncode == 128 + signum
-    lines = [line for line in err.strip().splitlines() if not line.startswith("Warp CUDA warning")]   # no driver here
-    assert len(lines) == 1 and lines[0].startswith("warp-sim: interrupted") and "Traceback" not in err, err
-    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("argv, code, shown", [

@@ -32,8 +32,8 @@ from .solvers import (
                     SymplecticEuler,
                     VelocityVerlet,
 )
+from .util.version import __version__
 
-__version__ = "0.1.0"
 __all__ = ["Scene", "Simulator", "Model", "State", "Control", "SimulationDiverged", "AdaptiveStepFailed",
            "INTEGRATORS", "Integrator", "Euler", "Midpoint", "RK4", "SymplecticEuler", "VelocityVerlet",
            "ImplicitEuler", "RK45", "Shape", "Sphere", "Box", "Capsule", "Cylinder", "MeshShape", "PointMasses",

@@ -31,7 +31,8 @@ def _demo(args) -> int:
           f"{args.seconds:g} s at {args.fps:g} fps x {args.substeps} substeps")
     started = time.perf_counter()
     path = sim.run(seconds=args.seconds, fps=args.fps, substeps=args.substeps, usd=args.out,
-                   progress=not args.no_progress)
+                   progress=not args.no_progress, chunk_frames=args.chunk_frames, resume=args.resume,
+                   keep_checkpoint=args.keep_checkpoint)
     elapsed = time.perf_counter() - started
     print(f"wrote {path} ({round(args.seconds * args.fps)} frames) in {elapsed:.2f} s wall time")
     return 0
@@ -77,6 +78,12 @@ def build_parser() -> argparse.ArgumentParser:
                       help="output stage, .usdc/.usd (binary) or .usda (text) (default: demo.usdc)")
     demo.add_argument("--rtol", type=float, default=None, help="rk45's relative tolerance (default: 1e-6)")
     demo.add_argument("--atol", type=float, default=None, help="rk45's absolute tolerance (default: 1e-8)")
+    demo.add_argument("--chunk-frames", type=int, default=None, metavar="N",
+                      help="frames per chunk written to disk with a checkpoint (default: 240, fewer for big scenes)")
+    demo.add_argument("--resume", action="store_true",
+                      help="go on from the checkpoint of an interrupted run to the same --out (else start over)")
+    demo.add_argument("--keep-checkpoint", action="store_true",
+                      help="keep the run's chunks and checkpoint beside the output when it completes")
     demo.add_argument("--no-progress", action="store_true", help="no progress bar")
     demo.add_argument("--verbose", action="store_true",
                       help="show Warp's compilation messages, and a traceback with any error")
@@ -120,10 +127,18 @@ def _diverged(error: SimulationDiverged) -> str:
     return f"warp-sim: {error}{kept}"
 
 
+def _kept(error: BaseException, then: str) -> str:
+    """What an interrupted run left: its checkpoint and how to go on, or nothing."""
+    frames = getattr(error, "frames_checkpointed", 0)
+    if not frames:
+        return "; nothing was written"
+    return f"; its first {frames} frames are checkpointed: {then}run the same command with --resume to go on"
+
+
 def main(argv=None) -> int:
     """Entry point of the `warp-sim` console script: one line and a non-zero exit for every expected failure
-    (bad input 2, divergence or an unwritable output 1, Ctrl-C 130, SIGTERM 143), a traceback only with
-    --verbose."""
+    (bad input 2, divergence or an unwritable output 1, Ctrl-C 130, SIGTERM 143; an interrupted run says how to
+    resume), a traceback only with --verbose."""
     args = build_parser().parse_args(argv)
     verbose = getattr(args, "verbose", False)
     set_verbose(verbose)
@@ -132,16 +147,15 @@ def main(argv=None) -> int:
     except (ValueError, SimulationDiverged, OSError, KeyboardInterrupt) as error:
         if verbose:
             raise
-        if isinstance(error, RunInterrupted):
-            print(f"warp-sim: {error}; nothing was written", file=sys.stderr)
-            return error.exit_code
         if isinstance(error, KeyboardInterrupt):
-            print("warp-sim: interrupted (Ctrl-C); nothing was written", file=sys.stderr)
-            return 130
+            name = str(error) if isinstance(error, RunInterrupted) else "interrupted (Ctrl-C)"
+            print(f"warp-sim: {name}{_kept(error, '')}", file=sys.stderr)
+            return error.exit_code if isinstance(error, RunInterrupted) else 130
         if isinstance(error, SimulationDiverged):
             print(_diverged(error), file=sys.stderr)
             return 1
-        print(f"warp-sim: error: {error}", file=sys.stderr)
+        kept = _kept(error, "free some space (or fix the cause), then ") if isinstance(error, OSError) else ""
+        print(f"warp-sim: error: {error}{'' if kept == '; nothing was written' else kept}", file=sys.stderr)
         return 2 if isinstance(error, ValueError) else 1
 
 

@@ -12,11 +12,15 @@ import warp as wp
 from tqdm.auto import tqdm
 
 from .assembly import RESPONSES, assemble
+from .core import persistence
 from .core.guards import Guard, SimulationDiverged
+from .core.persistence import Persistent
 from .kernels import rigid as rigid_kernels
 from .scene import Scene
 from .stages import StageWriter, stage_layout
 from .util import checks
+from .util.fingerprint import fingerprint
+from .util.version import __version__
 
 
 def resolve_device(device: str | None) -> str:
@@ -35,7 +39,7 @@ def resolve_device(device: str | None) -> str:
 SLOW_FRAME_STEPS = 1000
 
 
-class Simulator:
+class Simulator(Persistent):
     """Runs a Scene on a device with one ODE solver.
 
     integrator: a solver name (one of warp_sim.INTEGRATORS) or a solver instance such as
@@ -57,11 +61,16 @@ class Simulator:
     With "rk45" each ``step(dt)`` lands exactly on t + dt, taking as many internal steps as the tolerance
     needs (``sim.integrator.stats()`` counts them), so ``run(..., substeps=1)`` is the natural choice.
 
-    Attributes: scene; model (constants), control (held inputs), state (the current State; a new object
-    after each step, so read ``sim.state.particle_x`` afresh), dynamics, integrator, passes (in order);
+    persistent: time, step_count; with the parts of ``persistent_parts()``, what a checkpoint of ``run()`` keeps
+
+    Attributes: scene; settings (the options above); model (constants), control (held inputs), state (the current
+    State; a new object after each step, so read ``sim.state.particle_x`` afresh), dynamics, integrator, passes (in
+    order);
     body_contacts, particle_shapes, impacts, strain_limiter, emitters (those passes, or None); guard;
     time [s]; step_count.
     """
+
+    persistent = ("time", "step_count")
 
     def __init__(self, scene: Scene, integrator="rk4", device: str | None = None, contact: str = "impulse",
                  penalty_stiffness: float = 1.0e4, guard: bool = True, max_speed: float = 1.0e4,
@@ -80,8 +89,11 @@ class Simulator:
             raise checks.fail("guard", guard, "expected True or False")
         if contact_step is not None:
             contact_step = checks.scalar("contact_step", contact_step, low=0.0, low_open=True)
-        parts = assemble(scene, resolve_device(device), integrator, contact, stiffness, margin, collisions,
-                         contact_step)
+        device = resolve_device(device)
+        parts = assemble(scene, device, integrator, contact, stiffness, margin, collisions, contact_step)
+        #: the options it was made with, which a checkpoint must match
+        self.settings = dict(device=device, contact=contact, penalty_stiffness=stiffness, guard=guard, max_speed=speed,
+                             contact_margin=margin, collisions=collisions, contact_step=contact_step)
         self.scene = scene
         self.model = parts.model
         self.control = parts.control
@@ -220,21 +232,19 @@ class Simulator:
         the simulator's time then [s]; arrays are frame_arrays() (None with arrays=False: nothing is copied
         to the host). The guards are read at every frame, so a divergence raises SimulationDiverged before
         its frame is yielded."""
-        seconds = checks.scalar("seconds", seconds, low=0.0, low_open=True)
-        fps = checks.scalar("fps", fps, low=0.0, low_open=True)
-        substeps = checks.count("substeps", substeps)
-        frames = int(round(seconds * fps))
-        if frames < 1:
-            raise checks.fail("seconds", seconds, f"covers no frame at fps={fps}; need seconds >= {0.5 / fps:g}")
+        frames, fps, substeps = _frame_arguments(seconds, fps, substeps)
         if not isinstance(arrays, bool):
             raise checks.fail("arrays", arrays, "expected True or False")
         return self._frame_loop(frames, fps, substeps, arrays)
 
-    def _frame_loop(self, frames: int, fps: float, substeps: int, arrays: bool):
+    def _frame_loop(self, frames: int, fps: float, substeps: int, arrays: bool, first: int = 0,
+                    start_time: float | None = None):
+        """Frames ``first`` to ``frames - 1`` of a run that started at ``start_time`` (default: now, from frame 0;
+        a resumed run's state is that of frame ``first - 1``)."""
         h = 1.0 / (fps * substeps)
-        start_time = self.time
+        start_time = self.time if start_time is None else start_time
         accepted, warned = self.integrator.stats().get("accepted"), False
-        for frame in range(frames):
+        for frame in range(first, frames):
             if frame > 0:
                 for _ in range(substeps):
                     self._advance(h)
@@ -260,43 +270,81 @@ class Simulator:
             warnings.warn(message, RuntimeWarning, stacklevel=3)
 
     def run(self, seconds: float, fps: float = 60.0, substeps: int = 8, usd=None, progress: bool = True,
-            chunk_frames: int | None = None):
+            chunk_frames: int | None = None, resume: bool = False, keep_checkpoint: bool = False):
         """Simulate the frames of ``frames(seconds, fps, substeps)``, writing each to USD.
 
         usd: output path (.usdc, .usd or .usda) or None; checked before anything is simulated (an existing
         folder, a folder that cannot be made or written, a bad extension: ValueError or OSError naming it).
+        chunk_frames: frames per chunk: every chunk is written to disk with a checkpoint of the simulation
+        (default: 240, fewer for big scenes, so that a chunk holds at most about 256 MB)
+        resume: go on from the checkpoint of an earlier run to the same path that was killed, stopped by a signal
+        or a full disk, if there is one (else start at frame 0): the stage is then identical, in every time
+        sample, to an uninterrupted run. The checkpoint must come from the same scene, simulator options and run
+        arguments (a fingerprint of them all), or ValueError refuses it before anything is changed.
+        keep_checkpoint: leave the run's folder of chunks and checkpoint beside the output (hidden, until the
+        next run to the same path) instead of removing it when the stage is complete
+
         On divergence the stage keeps every frame before the bad one and SimulationDiverged propagates, with
         ``frames_written`` and ``usd`` set; with guard=False a frame holding a non-finite value counts as
-        divergence, so nothing non-finite is written. Any other interruption (an error, Ctrl-C, SIGTERM:
-        RunInterrupted) leaves no file, not even a partial one. Returns the written path (a pathlib.Path), or
-        None without usd.
+        divergence, so nothing non-finite is written. A signal (Ctrl-C: KeyboardInterrupt; SIGTERM:
+        RunInterrupted) or an OSError (a full disk) keeps the last checkpoint and propagates with
+        ``frames_checkpointed`` (0: nothing was kept) and ``usd`` set; any other error leaves no file. Returns the
+        written path (a pathlib.Path), or None without usd.
         """
-        frames = self.frames(seconds, fps, substeps, arrays=usd is not None)   # checks the arguments first
-        total = int(round(float(seconds) * float(fps)))
-        if chunk_frames is None:   # save often enough that unsaved samples stay below about 256 MB
+        total, fps, substeps = _frame_arguments(seconds, fps, substeps)
+        for name, flag in (("progress", progress), ("resume", resume), ("keep_checkpoint", keep_checkpoint)):
+            if not isinstance(flag, bool):
+                raise checks.fail(name, flag, "expected True or False")
+        if resume and usd is None:
+            raise checks.fail("resume", resume, "needs usd=: a checkpoint is kept beside a run's output")
+        if chunk_frames is None:   # a chunk of at most about 256 MB of samples
             frame_bytes = 40 * self.model.particle_count + 28 * self.model.body_count + 1
             chunk_frames = int(min(240, max(1, 256 * 2**20 // frame_bytes)))
-        writer = StageWriter(usd, fps, stage_layout(self.scene), chunk_frames) if usd is not None else None
+        chunk_frames = checks.count("chunk_frames", chunk_frames)
+        writer, first, start_time = None, 0, self.time
+        if usd is not None:
+            key = fingerprint(__version__, self.scene, self.settings, type(self.integrator).__name__,
+                              persistence.settings(self.integrator), [total, fps, substeps, chunk_frames])
+            writer = StageWriter(usd, fps, stage_layout(self.scene), chunk_frames, key=key, resume=resume)
+            if writer.resumed is not None:
+                arrays, meta = writer.resumed
+                values = dict(meta["values"])
+                start_time = values.pop("run.start_time")
+                persistence.restore(self, arrays, values)
+                first = writer.frames_written
         try:
-            with interruptions(), tqdm(total=total, unit="frame", disable=None if progress else True,
+            with interruptions(), tqdm(total=total, initial=first, unit="frame", disable=None if progress else True,
                                        desc="simulating") as bar:
-                for frame, _, arrays in frames:
+                for frame, _, arrays in self._frame_loop(total, fps, substeps, usd is not None, first, start_time):
                     if writer is not None:
                         if self.guard is None:
                             self._refuse_non_finite(frame, arrays)
-                        writer.write_frame(frame, **arrays)
+                        if writer.write_frame(frame, **arrays):
+                            saved, values = persistence.save(self)
+                            writer.checkpoint(saved, dict(values, **{"run.start_time": start_time}))
                     bar.update(1)
-            return writer.close() if writer is not None else None
+            return writer.close(keep_checkpoint) if writer is not None else None
         except SimulationDiverged as error:
             if writer is not None and writer.frames_written:
                 error.frames_written, error.usd = writer.frames_written, writer.close()
             elif writer is not None:
                 writer.abort()
             raise
+        except (KeyboardInterrupt, OSError) as error:   # a signal, a full disk: keep the last checkpoint
+            if writer is not None:
+                error.frames_checkpointed, error.usd = writer.suspend(), writer.path
+            raise
         except BaseException:
             if writer is not None:
                 writer.abort()
             raise
+
+    def persistent_parts(self) -> dict:
+        """The state, the held inputs, the solver and the passes that carry values from step to step. The guard is
+        not among them: a checkpoint is taken only after it read clean, and a fresh guard is clean."""
+        parts = {"state": self.state, "control": self.control, "integrator": self.integrator}
+        parts.update({f"pass{k}.{type(p).__name__}": p for k, p in enumerate(self.passes) if p.persistent})
+        return parts
 
     def _refuse_non_finite(self, frame: int, arrays: dict) -> None:
         """With the guard off: a frame holding a non-finite position or velocity raises SimulationDiverged
@@ -316,6 +364,17 @@ class Simulator:
                     raise SimulationDiverged(self.step_count, self.time, component, element,
                                              f"non-finite {name} in frame {frame} (guard off)",
                                              where=part.locate(element))
+
+
+def _frame_arguments(seconds, fps, substeps) -> tuple[int, float, int]:
+    """(frames, fps, substeps) of frames(), checked."""
+    seconds = checks.scalar("seconds", seconds, low=0.0, low_open=True)
+    fps = checks.scalar("fps", fps, low=0.0, low_open=True)
+    substeps = checks.count("substeps", substeps)
+    frames = int(round(seconds * fps))
+    if frames < 1:
+        raise checks.fail("seconds", seconds, f"covers no frame at fps={fps}; need seconds >= {0.5 / fps:g}")
+    return frames, fps, substeps
 
 
 class RunInterrupted(KeyboardInterrupt):

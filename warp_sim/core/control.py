@@ -6,9 +6,10 @@ import warp as wp
 
 from ..kernels import blocks
 from .model import Model
+from .persistence import Persistent
 
 
-class Control:
+class Control(Persistent):
     """Inputs held from when they are set until changed, on the model's device.
 
     body_force: per body, a force held on its centre of mass [N], world frame (vec3); None without bodies
@@ -17,6 +18,8 @@ class Control:
 
     The arrays are captured in ``held``: change their values in place (set_body_wrench), never replace them.
     """
+
+    persistent = ("body_force", "body_torque")
 
     def __init__(self, model: Model):
         self.model = model

@@ -13,6 +13,7 @@ import warp as wp
 
 from ..kernels import blocks
 from .model import Model
+from .persistence import Persistent
 from .state import State, StateField
 
 
@@ -72,13 +73,14 @@ class ForceTerm:
         raise NotImplementedError
 
 
-class Pass:
+class Pass(Persistent):
     """Something run after each solver step: ``apply(start, end, t, h)`` corrects ``end`` in place.
 
     start: the state at t; end: the solver's state at t + h; h: the step [s].
     ``check_step(h)`` runs before the step and may refuse it (ValueError).
     max_step: the longest step the pass is accurate at [s] (None: any); the simulator splits a longer step
     into equal sub-steps, solver and passes each, inside ``step()``
+    persistent: what it carries from one step to the next, for checkpoints (core.persistence; none by default)
     """
 
     max_step: float | None = None

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import warp as wp
 
+from .persistence import Persistent
+
 BLOCKS = ("position", "velocity")
 # the canonical Warp vector types of a field, by scalar type and width (vector, quaternion)
 ELEMENT_TYPES = {wp.float32: {3: wp.vec3f, 4: wp.quatf}, wp.float64: {3: wp.vec3d, 4: wp.quatd}}
@@ -51,7 +53,7 @@ class StateLayout:
         self.size = offset
 
 
-class State:
+class State(Persistent):
     """The time-varying state on one device.
 
     y: the flat buffer of every field (scalars of the model's precision)
@@ -59,6 +61,8 @@ class State:
     particle_x [m], particle_v [m/s], body_x [m], body_q (unit quaternion x, y, z, w), body_P [kg m/s],
         body_L [kg m^2/s]: typed views of the fields present (see StateField)
     """
+
+    persistent = ("y",)
 
     def __init__(self, layout: StateLayout, scalar, device):
         self.layout = layout

@@ -57,6 +57,8 @@ class BodyContacts(Pass):
         the longest at which the default sweeps hold stacks and landing piles; None: no sub-steps)
     """
 
+    persistent = ("_capacity", "table.used", "table.keys", "table.cells", "table.n", "table.t")   # the warm start
+
     def __init__(self, model: Model, detection: Detection, position_response: float, slop: float = 1.0e-4,
                  bounce_speed: float | None = None, sweeps: tuple[int, int, int] = (8, 16, 4),
                  iterations: tuple[int, int, int] = (8, 2, 2), relax: float = 0.2, tolerance: float = 1.0e-4,
@@ -96,6 +98,9 @@ class BodyContacts(Pass):
         slots = 1 << int(2 * capacity - 1).bit_length()   # a power of two, at least twice the contacts
         self.table = blocks.fill(m.blocks.ImpulseTable, used=m.zeros(slots, wp.int32), keys=m.zeros(slots, wp.vec2i),
                                  cells=m.zeros(slots, wp.vec3i), n=m.zeros(slots), t=m.zeros(slots, m.vec3))
+
+    def before_restore(self, values: dict) -> None:
+        self._ensure(values["_capacity"])
 
     @property
     def count(self) -> int:

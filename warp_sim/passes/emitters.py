@@ -11,6 +11,7 @@ import warnings
 import numpy as np
 import warp as wp
 
+from ..core.persistence import Persistent
 from ..core.protocols import Pass
 from ..kernels import blocks
 from ..kernels import emitters as kernels
@@ -25,6 +26,8 @@ class EmitterPools(Pass):
     solver step on the new state; ``arrays`` are global-length per-particle arrays:
     alive (int32), ids (int64), color (RGB), opacity.
     """
+
+    persistent = ("alive", "ids", "color", "opacity", "model.particle_inv_mass", "model.particle_radius")
 
     def __init__(self, model, scene):
         self.model = model
@@ -50,6 +53,9 @@ class EmitterPools(Pass):
                 if pool.e.kill_on_contact:
                     pool.touched = self.touched
         self.shortest_lifetime = min(e.lifetime[0] for e in self.emitters)
+
+    def persistent_parts(self) -> dict:
+        return {f"pool{k}": pool for k, pool in enumerate(self.pools)}
 
     def initial_births(self, state, t: float) -> None:
         """Births at the start time t (bursts at t and continuous births up to t)."""
@@ -79,8 +85,10 @@ class EmitterPools(Pass):
                               f"{entry['capacity']} was full; raise capacity=", stacklevel=3)
 
 
-class _Pool:
+class _Pool(Persistent):
     """One emitter's slots, free stack, counters and launch parameters."""
+
+    persistent = ("birth", "age", "lifetime", "free_slots", "free_count", "born", "skipped", "emitted", "stream")
 
     def __init__(self, e: Emitter, owner: EmitterPools, model, scene):
         self.e, self.model, self.k = e, model, kernels

@@ -68,6 +68,7 @@ class RK45(Integrator):
 
     name, order = "rk45", 5
     min_step_fraction = 1.0e-12
+    persistent = ("step_size", "accepted", "rejected", "evaluations")
     safety, min_factor, max_factor = 0.9, 0.2, 5.0
 
     def __init__(self, rtol: float = 1.0e-6, atol: float = 1.0e-9, max_steps: int = 100_000,

@@ -8,12 +8,13 @@ so every component runs under every solver. Scratch states are allocated once, a
 from __future__ import annotations
 
 from ..core.dynamics import Dynamics
+from ..core.persistence import Persistent
 from ..core.state import State
 from ..kernels import integrate
 from ..util import checks
 
 
-class Integrator:
+class Integrator(Persistent):
     """Base of the ODE solvers: ``Integrator(**options)``, then ``bind(dynamics)``, then ``step``.
 
     name: the registry name ("rk4", ...); order: the global order of accuracy
@@ -21,6 +22,7 @@ class Integrator:
         step moves the end position by beta h times the end velocity change it causes (1/2 for the
         trapezoid-like solvers, 1 for symplectic and implicit Euler, 0 for explicit Euler)
     dynamics: the Dynamics it is bound to (None before ``bind``)
+    persistent: what it carries from one step to the next (a step size, a warm start, counters), for checkpoints
     """
 
     name = ""

@@ -90,6 +90,8 @@ class ImplicitEuler(Partitioned):
 
     name, order = "implicit_euler", 1
     position_response = 1.0
+    persistent = ("dv", "last_iterations", "last_residual", "last_tolerance", "last_converged",
+                  "unconverged_solves", "iterations", "relative_residuals", "_reported", "_worst_unreported")
 
     def __init__(self, tolerance: float = 1.0e-3, max_iterations: int | None = None,
                  preconditioner: str = "block_jacobi", warm_start: bool = False, check_every: int = 1,

@@ -32,20 +32,23 @@ A static collider (``ColliderSpec``) is a ``UsdGeom.Xform`` at ``/World/Collider
 drawn like a body, but its translate and orient are default values, written once, with no
 time samples.
 
-The stage is built in a hidden temporary file next to the final path
-(``.<name>.partial-<pid><ext>``), saved every ``chunk_frames`` frames. A save frees the saved
-samples from memory (a 10^6-slot pool half alive holds about 30 MB per frame until then, so
-large pools want a small ``chunk_frames``), but each save of a crate file leaves the data it
-replaces behind as dead space, so the partial file grows faster than its frames. ``close()``
-therefore exports the layer afresh (``Sdf.Layer.Export``: only live data, the size of a stage
-saved once) and moves the export onto the final path with ``os.replace``, so the final path
-never holds a half-written stage and its size is linear in the frames.
+The stage is built in memory and written in chunks of ``chunk_frames`` frames: each chunk's
+time samples move from memory into a chunk file of the run's hidden folder beside the final path
+(``stages.runs``: ``.<name>.run-<pid>/``), written once and atomically, so memory stays flat and
+a kill at any moment leaves only whole chunks. ``close()`` stitches the static stage and every
+chunk into one layer (``UsdUtils.StitchLayers``), exports it afresh (only live data: the size of
+a stage saved once, linear in the frames) to a temporary file, flushes it and renames it onto the
+final path, so the final path never holds a half-written stage.
+
+A run that is given a ``checkpoint`` after a chunk (``StageWriter.checkpoint``) can be taken up
+again by a later writer with ``resume=True`` and the same ``key``: it adopts the dead run's
+folder, starts at the frame after the checkpoint and returns the checkpoint in ``resumed``.
 
 The path is checked when the writer is made, before anything is simulated: its extension,
-that it is not an existing folder, that its folder can be made and written (a partial file is
-created there at once). Partial files of processes that are no longer alive (a killed run)
-are removed then. Any failure of ``close()`` (a full disk) removes every temporary file and
-raises OSError naming the user's path.
+that it is not an existing folder, that its folder can be made and written (the run folder is
+made there at once). Run folders of processes that are no longer alive are removed then
+(unless one is resumed). Any failure of ``close()`` (a full disk) removes the temporary export
+and raises OSError naming the user's path.
 """
 
 from __future__ import annotations
@@ -56,42 +59,16 @@ import pathlib
 from typing import TYPE_CHECKING
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom, UsdPhysics, Vt
+from pxr import Sdf, Usd, UsdGeom, UsdPhysics, UsdUtils, Vt
 
 if TYPE_CHECKING:
     from typing_extensions import Self  # typing.Self needs Python 3.11
 
 from .prims import POOL_ARRAYS, QUAT_NORM_TOLERANCE, Frame, check_in_range, check_rows, prim_writers, require
+from .runs import FORMAT, RunFolder, export_layer, remove_strays, run_folder, strays, write_atomically
 from .specs import USD_EXTENSIONS, WORLD_PATH, StageLayout
 
 __all__ = ["StageWriter"]
-
-
-def partial_path(path: pathlib.Path, pid: int) -> pathlib.Path:
-    """The hidden partial file of a run of process ``pid`` writing ``path``."""
-    return path.with_name(f".{path.stem}.partial-{pid}{path.suffix}")
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:   # someone else's live process
-        return True
-    return True
-
-
-def remove_strays(path: pathlib.Path) -> list[pathlib.Path]:
-    """Remove the partial and export files next to ``path`` left by processes no longer alive; returns them."""
-    removed = []
-    for kind in ("partial", "export"):
-        for stray in path.parent.glob(f".{path.stem}.{kind}-*{path.suffix}"):
-            pid = stray.name[len(f".{path.stem}.{kind}-"):-len(path.suffix) or None]
-            if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
-                stray.unlink(missing_ok=True)
-                removed.append(stray)
-    return removed
 
 
 class StageWriter:
@@ -101,7 +78,8 @@ class StageWriter:
     exception calls ``abort()`` (the final path is then left untouched).
     """
 
-    def __init__(self, path, fps: float, layout: StageLayout, chunk_frames: int = 240):
+    def __init__(self, path, fps: float, layout: StageLayout, chunk_frames: int = 240, key: str | None = None,
+                 resume: bool = False):
         require(isinstance(path, (str, os.PathLike)) and str(path).strip() != "",
                 f"usd={path!r} is invalid: expected a file path ending in {', '.join(USD_EXTENSIONS)}")
         self._given = path
@@ -133,16 +111,40 @@ class StageWriter:
             raise OSError(f"cannot write {str(path)!r}: its folder cannot be made ({error.strerror})") from None
         if not os.access(self._path.parent, os.W_OK):
             raise OSError(f"cannot write {str(path)!r}: its folder {str(self._path.parent)!r} is not writable")
-        remove_strays(self._path)
-        self._tmp = partial_path(self._path, os.getpid())
-        self._export = self._tmp.with_name(self._tmp.name.replace(".partial-", ".export-"))
-        self._tmp.unlink(missing_ok=True)
-        try:
-            self._stage = Usd.Stage.CreateNew(str(self._tmp))
-        except Exception as error:   # pxr.Tf.ErrorException: name the user's path, not the hidden one
-            self._tmp.unlink(missing_ok=True)
-            raise OSError(f"cannot write {str(path)!r}: {str(error).strip().splitlines()[-1]}") from None
+        self._key = key
+        self._run = RunFolder(run_folder(self._path, os.getpid()))
+        self._animated: set = set()   # attribute paths with time samples
+        self.resumed = self._resume() if resume else None
+        remove_strays(self._path, keep=self._run.folder if self.resumed is not None else None)
+        if self.resumed is None:
+            try:
+                self._run.create()
+            except OSError as error:
+                raise OSError(f"cannot write {str(path)!r}: {error.strerror or error}") from None
+        self._checkpointed = self._frames
+        self._stage = Usd.Stage.CreateInMemory(f"anon{self._path.suffix}")
         self._define()
+
+    def _resume(self) -> tuple[dict, dict] | None:
+        """Adopt the newest dead run's folder whose checkpoint has this writer's key: (arrays, meta) of its
+        checkpoint, or None when there is none. ValueError when checkpoints exist but none has the key."""
+        found = [(folder, RunFolder(folder).load_checkpoint()) for folder in strays(self._path)]
+        found = [(folder, checkpoint) for folder, checkpoint in found if checkpoint is not None]
+        matching = [(folder, checkpoint) for folder, checkpoint in found
+                    if checkpoint[1].get("key") == self._key and checkpoint[1].get("format") == FORMAT]
+        if not matching:
+            if found:
+                folder, (_, meta) = found[-1]
+                raise ValueError(
+                    f"resume: the checkpoint of {str(self._given)!r} in {folder.name} was written for another "
+                    f"scene, simulator or run arguments (fingerprint {meta.get('key')}, format "
+                    f"{meta.get('format')}; this run's: {self._key}, format {FORMAT}); it was not used: run without "
+                    "resume to start over (which removes it)")
+            return None
+        folder, (arrays, meta) = max(matching, key=lambda item: item[1][1]["frames"])
+        self._run.adopt(folder, meta["chunks"])
+        self._frames = int(meta["frames"])
+        return arrays, meta
 
     def _define(self) -> None:
         stage = self._stage
@@ -280,40 +282,91 @@ class StageWriter:
             for writer in self._sdf_writers:
                 writer.write(data)
         self._frames += 1
-        if self._frames % self._chunk_frames == 0:
-            self._save()
+        if self._frames % self._chunk_frames:
+            return False
+        self._flush()
+        return True
 
-    def _save(self) -> None:
-        self._stage.SetEndTimeCode(max(self._frames - 1, 0))
-        self._stage.Save()
+    def _flush(self) -> None:
+        """Move the time samples of the frames since the last chunk from memory into the next chunk file."""
+        layer = self._stage.GetRootLayer()
 
-    def close(self) -> pathlib.Path:
-        """Export the stage afresh and move it onto the final path; returns that path. On any failure (a full
-        disk) every temporary file is removed and OSError names the user's path."""
+        def collect(path):
+            if path.IsPropertyPath():
+                spec = layer.GetAttributeAtPath(path)
+                if spec is not None and spec.HasInfo("timeSamples"):
+                    self._animated.add(path)
+        layer.Traverse(Sdf.Path.absoluteRootPath, collect)
+        chunk = Sdf.Layer.CreateAnonymous(".usdc")
+        for path in sorted(self._animated):
+            spec = layer.GetAttributeAtPath(path)
+            if spec is None or not spec.HasInfo("timeSamples"):
+                continue
+            Sdf.CreatePrimInLayer(chunk, path.GetPrimPath())
+            Sdf.CopySpec(layer, path, chunk, path)
+            spec.ClearInfo("timeSamples")
+        try:
+            self._run.add_chunk(chunk)
+        except OSError as error:
+            raise self._cannot_write(error) from None
+
+    def _cannot_write(self, error: Exception) -> OSError:
+        """OSError naming the user's path, with the reason of ``error`` (its last line)."""
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else str(error).strip()
+        return OSError(f"cannot write {str(self._given)!r}: {reason.splitlines()[-1] if reason else repr(error)}")
+
+    def checkpoint(self, arrays: dict, values: dict) -> None:
+        """Keep what a run needs to go on after the frames written so far (call right after the ``write_frame``
+        that returned True): ``arrays`` (numpy) and ``values`` (JSON), with this writer's key; a later writer with
+        ``resume=True`` and the same key returns them in ``resumed``."""
+        self._check_open()
+        require(self._frames % self._chunk_frames == 0 and self._frames > 0,
+                f"checkpoint(): {self._frames} frames are not a whole number of chunks of {self._chunk_frames}")
+        try:
+            self._run.save_checkpoint(arrays, {"key": self._key, "frames": self._frames, "values": values})
+        except OSError as error:
+            raise self._cannot_write(error) from None
+        self._checkpointed = self._frames
+
+    @property
+    def frames_checkpointed(self) -> int:
+        """Frames a resumed run would not have to simulate again (0 without a checkpoint)."""
+        return self._checkpointed
+
+    def close(self, keep_checkpoint: bool = False) -> pathlib.Path:
+        """Stitch the chunks into one stage, export it afresh and move it onto the final path; returns that path.
+        The run's folder is removed, unless ``keep_checkpoint``. On any failure (a full disk) the temporary export
+        is removed, the run's last checkpoint is kept (to resume from) and OSError names the user's path."""
         self._check_open()
         require(self._frames > 0,
                  f"close(): no frames written to {str(self._path)!r}; an empty animation is not a stage")
         try:
+            layer = self._stage.GetRootLayer()
+            chunks = [Sdf.Layer.FindOrOpen(str(chunk)) for chunk in self._run.chunks]
+            for chunk in chunks:
+                UsdUtils.StitchLayers(layer, chunk)
             self._stage.SetEndTimeCode(max(self._frames - 1, 0))
-            if not self._stage.GetRootLayer().Export(str(self._export)):
-                raise OSError("the USD export failed")
-            self._stage = None   # release the layer before removing its file
-            with open(self._export, "rb+") as f:   # data on disk before the rename makes it visible
-                os.fsync(f.fileno())
-            os.replace(self._export, self._path)
-        except Exception as error:   # OSError, pxr.Tf.ErrorException: one message, the user's path, nothing left
-            self.abort()
-            reason = error.strerror if isinstance(error, OSError) and error.strerror else str(error).strip()
-            raise OSError(f"cannot write {str(self._given)!r}: {reason.splitlines()[-1] if reason else error!r}") \
-                from None
-        self._tmp.unlink(missing_ok=True)
+            write_atomically(self._path, lambda temporary: export_layer(layer, temporary))
+        except Exception as error:   # OSError, pxr.Tf.ErrorException: one message, the user's path
+            self.suspend()
+            raise self._cannot_write(error) from None
+        self._stage = None
+        if not keep_checkpoint:
+            self._run.remove()
         return self._path
 
-    def abort(self) -> None:
-        """Drop the temporary files; the final path is untouched. No-op once closed."""
+    def suspend(self) -> int:
+        """Stop without a stage, keeping the run's folder if it holds a checkpoint (a later writer with
+        ``resume=True`` goes on from it); returns the frames it holds (0: nothing was kept). No-op once closed."""
         self._stage = None
-        self._tmp.unlink(missing_ok=True)
-        self._export.unlink(missing_ok=True)
+        if self._checkpointed == 0:
+            self._run.remove()
+        return self._checkpointed
+
+    def abort(self) -> None:
+        """Drop every temporary file and the run's folder; the final path is untouched. No-op once closed."""
+        self._stage = None
+        self._run.remove()
 
     def __enter__(self) -> Self:
         return self

@@ -1,0 +1,258 @@
+"""Checkpoints and resume: a run stopped at any moment (SIGKILL, SIGTERM, Ctrl-C, a full disk) goes on from its last
+checkpoint to a stage identical in every time sample to an uninterrupted run; a checkpoint of another scene or other
+run arguments is refused; a checkpoint is data, never code; a completed run leaves nothing but its output."""
+import os
+import pathlib
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from pxr import Sdf
+
+import warp_sim as ws
+from warp_sim.demo import demo_scene
+from warp_sim.passes.body_contacts import BodyContacts
+from warp_sim.stages import writer as writer_module
+from warp_sim.stages.runs import CHECKPOINT, RunFolder, run_folder, strays
+
+
+def samples(path) -> dict:
+    """Every time sample of a stage: (attribute path, time) -> the value's bytes (or repr for scalars)."""
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    found = {}
+
+    def visit(spec_path):
+        if spec_path.IsPropertyPath():
+            for t in layer.ListTimeSamplesForPath(spec_path):
+                value = layer.QueryTimeSample(spec_path, t)
+                found[(str(spec_path), t)] = np.asarray(value).tobytes() if hasattr(value, "__len__") else repr(value)
+    layer.Traverse(Sdf.Path.absoluteRootPath, visit)
+    return found
+
+
+def assert_same_samples(resumed, reference):
+    a, b = samples(resumed), samples(reference)
+    assert a.keys() == b.keys()
+    different = [key for key in a if a[key] != b[key]]
+    assert not different, f"{len(different)} of {len(a)} samples differ, first {different[0]}"
+
+
+def leftovers(folder):
+    return sorted(p.name for p in pathlib.Path(folder).iterdir() if p.name.startswith("."))
+
+
+def stop_after_checkpoints(monkeypatch, count, error=KeyboardInterrupt):
+    """Make a run raise ``error`` right after its ``count``-th checkpoint (a signal arriving then)."""
+    real, seen = writer_module.StageWriter.checkpoint, []
+
+    def checkpoint(self, arrays, values):
+        real(self, arrays, values)
+        seen.append(self.frames_written)
+        if len(seen) == count:
+            raise error()
+    monkeypatch.setattr(writer_module.StageWriter, "checkpoint", checkpoint)
+    return seen
+
+
+def springs_scene(precision="float64"):
+    scene = ws.Scene(precision=precision)
+    scene.add_ground(restitution=0.5)
+    rng = np.random.default_rng(1)
+    ids = scene.add_particles(rng.uniform(0.0, 1.0, (12, 3)) + [0.0, 0.5, 0.0], rng.normal(0.0, 1.0, (12, 3)),
+                              radius=0.02)
+    scene.add_springs(np.stack([ids[:-1], ids[1:]], axis=1), stiffness=200.0, damping=0.1)
+    return scene
+
+
+@pytest.mark.parametrize("make, integrator, seconds", [
+    (demo_scene, lambda: "rk4", 1.0),               # emitters, cloth, strain limits, bodies in contact, wind
+    (demo_scene, lambda: "implicit_euler", 0.5),    # the conjugate gradient warm start
+    (springs_scene, lambda: ws.RK45(rtol=1e-6, atol=1e-9), 1.0),   # the adaptive step size carried over
+])
+def test_a_resumed_run_is_identical_to_an_uninterrupted_one(tmp_path, monkeypatch, make, integrator, seconds):
+    chunk = 12
+    reference = ws.Simulator(make(), integrator=integrator()).run(seconds, 60, 4, usd=tmp_path / "whole.usdc",
+                                                                  progress=False, chunk_frames=chunk)
+    seen = stop_after_checkpoints(monkeypatch, 2)
+    out = tmp_path / "cut.usdc"
+    with pytest.raises(KeyboardInterrupt) as stopped:
+        ws.Simulator(make(), integrator=integrator()).run(seconds, 60, 4, usd=out, progress=False,
+                                                          chunk_frames=chunk)
+    assert stopped.value.frames_checkpointed == seen[-1] == 2 * chunk and stopped.value.usd == out
+    assert not out.exists() and len(leftovers(tmp_path)) == 1    # the run's folder, with its checkpoint
+    monkeypatch.undo()
+    sim = ws.Simulator(make(), integrator=integrator())
+    assert sim.run(seconds, 60, 4, usd=out, progress=False, chunk_frames=chunk, resume=True) == out
+    assert_same_samples(out, reference)
+    assert leftovers(tmp_path) == []
+
+
+def test_the_comparison_sees_a_missing_part_of_the_checkpoint(tmp_path, monkeypatch):
+    """The identity above is not luck: resumed without the contact response's warm-start table, the demo's pile
+    moves differently (so every persistent part is needed, and is checked)."""
+    reference = ws.Simulator(demo_scene()).run(1.0, 60, 4, usd=tmp_path / "whole.usdc", progress=False,
+                                               chunk_frames=12)
+    stop_after_checkpoints(monkeypatch, 2)
+    with pytest.raises(KeyboardInterrupt):
+        ws.Simulator(demo_scene()).run(1.0, 60, 4, usd=tmp_path / "cut.usdc", progress=False, chunk_frames=12)
+    monkeypatch.undo()
+    monkeypatch.setattr(BodyContacts, "persistent", ("_capacity",))
+    ws.Simulator(demo_scene()).run(1.0, 60, 4, usd=tmp_path / "cut.usdc", progress=False, chunk_frames=12,
+                                   resume=True)
+    with pytest.raises(AssertionError, match="samples differ"):
+        assert_same_samples(tmp_path / "cut.usdc", reference)
+
+
+@pytest.mark.parametrize("change, shown", [
+    (lambda scene, args: scene.add_particles([[0.0, 3.0, 0.0]]), "another scene"),
+    (lambda scene, args: args.update(substeps=5), "another scene, simulator or run arguments"),
+])
+def test_a_checkpoint_of_another_run_is_refused(tmp_path, monkeypatch, change, shown):
+    args = dict(seconds=0.5, fps=60, substeps=4, chunk_frames=6)
+    stop_after_checkpoints(monkeypatch, 1)
+    with pytest.raises(KeyboardInterrupt):
+        ws.Simulator(springs_scene()).run(**args, usd=tmp_path / "out.usdc", progress=False)
+    monkeypatch.undo()
+    scene = springs_scene()
+    change(scene, args)
+    sim = ws.Simulator(scene)
+    with pytest.raises(ValueError, match=shown):
+        sim.run(**args, usd=tmp_path / "out.usdc", progress=False, resume=True)
+    assert sim.step_count == 0 and len(leftovers(tmp_path)) == 1   # not used, not removed
+    sim.run(**args, usd=tmp_path / "out.usdc", progress=False)      # a fresh run starts over and removes it
+    assert leftovers(tmp_path) == []
+
+
+def test_a_checkpoint_is_data_never_code(tmp_path):
+    """A checkpoint planted beside an output with a pickled object in it is never unpickled: the resume finds no
+    usable checkpoint and starts at frame 0."""
+    out = tmp_path / "out.usdc"
+    folder = run_folder(out, 2**22 + 17)          # no such process
+    folder.mkdir()
+    marker = tmp_path / "pwned"
+
+    class Payload:
+        def __reduce__(self):
+            return (pathlib.Path.touch, (marker,))
+    with open(folder / CHECKPOINT, "wb") as f:
+        np.savez(f, state=np.array([Payload()], dtype=object), __meta__=np.frombuffer(b"{}", dtype=np.uint8))
+    sim = ws.Simulator(springs_scene())
+    sim.run(0.2, usd=out, progress=False, resume=True)
+    assert not marker.exists()
+    assert sim.step_count == (12 - 1) * 8 and leftovers(tmp_path) == []   # from frame 0
+
+
+def test_resume_without_a_checkpoint_starts_over_and_keep_checkpoint_keeps_it(tmp_path):
+    out = tmp_path / "out.usdc"
+    sim = ws.Simulator(springs_scene())
+    sim.run(0.5, usd=out, progress=False, resume=True, keep_checkpoint=True, chunk_frames=10)
+    assert sim.step_count == (30 - 1) * 8
+    folders = strays(out)
+    assert len(folders) == 1 and RunFolder(folders[0]).load_checkpoint()[1]["frames"] == 30
+    with pytest.raises(ValueError, match="resume"):
+        ws.Simulator(springs_scene()).run(0.5, resume=True, progress=False)
+
+
+# ---- a real process, killed -------------------------------------------------------------------------------------
+
+DEMO = ["demo", "--seconds", "2", "--chunk-frames", "20", "--no-progress"]
+
+
+def warp_sim(*args, **popen):
+    return subprocess.Popen([sys.executable, "-m", "warp_sim.cli", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **popen)
+
+
+def wait_for_checkpoint(out, process):
+    deadline = time.monotonic() + 180.0
+    while not any((folder / CHECKPOINT).exists() for folder in out.parent.glob(f".{out.name}.run-*")):
+        assert process.poll() is None and time.monotonic() < deadline, "the run ended before its first checkpoint"
+        time.sleep(0.02)
+
+
+def error_lines(err):
+    return [line for line in err.strip().splitlines() if not line.startswith("Warp CUDA warning")]   # no driver here
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    out = tmp_path_factory.mktemp("whole") / "demo.usdc"
+    process = warp_sim(*DEMO, "--out", str(out))
+    process.communicate(timeout=600)
+    assert process.returncode == 0
+    return out
+
+
+@pytest.mark.parametrize("signum", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT])
+def test_a_killed_command_resumes_to_the_same_stage(tmp_path, uninterrupted, signum):
+    """SIGKILL (nothing runs), SIGTERM (exit 143) or Ctrl-C (130) mid-run, then ``--resume``: the stage is identical
+    to an uninterrupted run's and nothing else is left."""
+    out = tmp_path / "demo.usdc"
+    process = warp_sim(*DEMO, "--out", str(out))
+    wait_for_checkpoint(out, process)
+    process.send_signal(signum)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == (-signum if signum == signal.SIGKILL else 128 + signum)
+    if signum != signal.SIGKILL:
+        lines = error_lines(err)
+        assert len(lines) == 1 and "Traceback" not in err, err
+        assert lines[0].startswith("warp-sim: interrupted") and "--resume" in lines[0] and "checkpointed" in lines[0]
+    assert not out.exists() and len(leftovers(tmp_path)) == 1
+    resumed = warp_sim(*DEMO, "--out", str(out), "--resume")
+    _, err = resumed.communicate(timeout=600)
+    assert resumed.returncode == 0, err
+    assert_same_samples(out, uninterrupted)
+    assert leftovers(tmp_path) == []
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 64 MB tmpfs (root only; skipped where it cannot be mounted)."""
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    if shutil.which("mount") is None or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64m", "tmpfs",
+                                                        str(mount)], capture_output=True).returncode != 0:
+        pytest.skip("cannot mount a tmpfs here")
+    yield mount
+    subprocess.run(["umount", "-l", str(mount)], check=False)
+
+
+def test_a_full_disk_keeps_whole_files_only_and_resumes_once_freed(small_disk, tmp_path):
+    """The disk fills mid-run: the command prints one line naming the user's path, exits 1 and leaves only whole
+    chunks and a checkpoint (no temporary file); once space is freed, --resume completes the same stage as a run
+    on a roomy disk. A disk too full for any checkpoint leaves nothing at all."""
+    args = ["demo", "--seconds", "1.5", "--chunk-frames", "15", "--no-progress"]
+    roomy = warp_sim(*args, "--out", str(tmp_path / "roomy.usdc"))
+    roomy.communicate(timeout=600)
+    size = (tmp_path / "roomy.usdc").stat().st_size
+    ballast = small_disk / "ballast"
+    free = shutil.disk_usage(small_disk).free
+    ballast.write_bytes(b"\0" * max(0, free - size // 2))          # room for about half the stage
+    out = small_disk / "demo.usdc"
+    full = warp_sim(*args, "--out", str(out))
+    _, err = full.communicate(timeout=600)
+    lines = error_lines(err)
+    assert full.returncode == 1 and len(lines) == 1 and "Traceback" not in err, err
+    assert str(out) in lines[0] and "No space left" in lines[0] and "--resume" in lines[0], lines[0]
+    assert not out.exists()
+    (folder,) = small_disk.glob(".demo.usdc.run-*")
+    assert not [p for p in folder.iterdir() if p.name.endswith(".tmp")]
+    assert RunFolder(folder).load_checkpoint() is not None
+    ballast.unlink()
+    resumed = warp_sim(*args, "--out", str(out), "--resume")
+    _, err = resumed.communicate(timeout=600)
+    assert resumed.returncode == 0, err
+    assert_same_samples(out, tmp_path / "roomy.usdc")
+    assert leftovers(small_disk) == []
+    out.unlink()
+    ballast.write_bytes(b"\0" * (shutil.disk_usage(small_disk).free - 4096))   # no room for anything
+    cramped = warp_sim(*args, "--out", str(out))
+    _, err = cramped.communicate(timeout=600)
+    lines = error_lines(err)
+    assert cramped.returncode == 1 and len(lines) == 1 and "No space left" in lines[0], err
+    assert sorted(p.name for p in small_disk.iterdir()) == ["ballast"]
+    os.sync()
