@@ -3,12 +3,13 @@
     python benchmarks/soak.py [--frames 100000] [--every 10000] [--chunk-frames 1000] [--particles 100]
                               [--out benchmarks/results/soak.json]
 
-A child process runs ``Simulator.run`` of ``--particles`` particles bouncing elastically on the ground (symplectic
-Euler, one step per frame at 600 fps) for ``--frames`` frames into a scratch folder, checkpointing every
-``--chunk-frames``; the parent watches it from outside (its resident memory from /proc, its frames from the
-checkpoint, the bytes of its chunks on disk) and prints a row every ``--every`` frames. Then the same run is killed (SIGKILL) halfway
-and resumed with ``resume=True``: the resume's wall time, set against the share of the uninterrupted run it has
-left to do, gives the cost of going on from a checkpoint. Nothing is asserted about times.
+A child process runs ``Simulator.run`` of ``--particles`` particles bouncing elastically on the ground
+(symplectic Euler, one step per frame at 600 fps) for ``--frames`` frames into a scratch folder, checkpointing
+every ``--chunk-frames``; the parent watches it from outside (its resident memory from /proc, its frames from the
+checkpoint, the bytes of its chunks on disk) and prints a row every ``--every`` frames. Then the same run is
+killed (SIGKILL) halfway and resumed with ``resume=True``: the resume's wall time, set against the share of the
+uninterrupted run it has left to do, gives the cost of going on from a checkpoint. Nothing is asserted about
+times.
 """
 from __future__ import annotations
 
