@@ -293,9 +293,9 @@ def test_body_samples_in_chunk_saves(tmp_path):
     with StageWriter(path, 60, LAYOUT, chunk_frames=2) as w:
         for k, (x, q) in enumerate(body_frames(3)):
             w.write_frame(k, body_x=x, body_q=q)
-            if k == 1:  # the first chunk is on disk in the temp file, readable on its own
-                (tmp,) = listing(tmp_path)
-                layer = Sdf.Layer.OpenAsAnonymous(str(tmp_path / tmp))
+            if k == 1:  # the first chunk is on disk in the run's folder, readable on its own
+                (folder,) = listing(tmp_path)
+                layer = Sdf.Layer.OpenAsAnonymous(str(tmp_path / folder / "chunk-000000.usdc"))
                 assert layer.ListTimeSamplesForPath("/World/Bodies/ball.xformOp:translate") == [0.0, 1.0]
                 assert layer.ListTimeSamplesForPath("/World/Bodies/ball.xformOp:orient") == [0.0, 1.0]
     stage = Usd.Stage.Open(str(path))

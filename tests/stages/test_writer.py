@@ -163,7 +163,7 @@ def test_non_finite_raises_and_leaves_nothing(tmp_path, array, bad):
 def test_abort_removes_temp_file(tmp_path):
     w = StageWriter(tmp_path / "run.usda", 100, make_layout(), chunk_frames=1)
     w.write_frame(0, *frames(1)[0])
-    assert len(listing(tmp_path)) == 1 and listing(tmp_path)[0].startswith(".run.partial-")
+    assert len(listing(tmp_path)) == 1 and listing(tmp_path)[0].startswith(".run.usda.run-")   # the run's folder
     w.abort()
     assert listing(tmp_path) == []
 
@@ -186,10 +186,9 @@ def test_chunked_saves_give_complete_stage(tmp_path):
     with StageWriter(path, 100, make_layout(), chunk_frames=2) as w:
         for k, (x, v) in enumerate(data):
             w.write_frame(k, x, v)
-            if k == 1:  # first chunk is on disk in the temp file, readable on its own
-                (tmp,) = listing(tmp_path)
-                layer = Sdf.Layer.OpenAsAnonymous(str(tmp_path / tmp))
-                assert layer.endTimeCode == 1.0
+            if k == 1:  # the first chunk is on disk in the run's folder, readable on its own
+                (folder,) = listing(tmp_path)
+                layer = Sdf.Layer.OpenAsAnonymous(str(tmp_path / folder / "chunk-000000.usdc"))
                 assert layer.ListTimeSamplesForPath("/World/Particles/balls.points") == [0.0, 1.0]
     stage = Usd.Stage.Open(str(path))
     assert stage.GetEndTimeCode() == 4.0

@@ -1,0 +1,125 @@
+"""warp_sim's own attributes on USD prims (the ``warpSim:`` namespace): cloth on a Mesh, particles on Points, an
+emitter on an Xform. Read by Scene.from_usd, written by Scene.to_usd; documented in docs/usd.md.
+
+Geometry (points, velocities, widths, the prim's transform) is in the stage's units and axes like any USD data;
+the ``warpSim:`` values are SI (kg, kg/m^2, N/m, N s/m, m, s, degrees for a cone's spread).
+"""
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+from pxr import Sdf, UsdGeom
+
+CLOTH, PARTICLES, EMITTER = "warpSim:cloth", "warpSim:particles", "warpSim:emitter"
+# name -> (Sdf type, the add_* keyword it feeds)
+CLOTH_ATTRIBUTES = {"warpSim:mass": (Sdf.ValueTypeNames.Float, "mass"),
+                    "warpSim:density": (Sdf.ValueTypeNames.Float, "density"),
+                    "warpSim:stiffness": (Sdf.ValueTypeNames.Float3, "stiffness"),
+                    "warpSim:damping": (Sdf.ValueTypeNames.Float3, "damping"),
+                    "warpSim:pinned": (Sdf.ValueTypeNames.IntArray, "pinned"),
+                    "warpSim:drag": (Sdf.ValueTypeNames.Float, "drag"),
+                    "warpSim:lift": (Sdf.ValueTypeNames.Float, "lift"),
+                    "warpSim:maxStretch": (Sdf.ValueTypeNames.Float, "max_stretch"),
+                    "warpSim:radius": (Sdf.ValueTypeNames.Float, "radius")}
+PARTICLE_ATTRIBUTES = {"warpSim:mass": (Sdf.ValueTypeNames.FloatArray, "mass"),
+                       "warpSim:pinned": (Sdf.ValueTypeNames.IntArray, "pinned"),
+                       "warpSim:restitution": (Sdf.ValueTypeNames.Float, "restitution"),
+                       "warpSim:friction": (Sdf.ValueTypeNames.Float, "friction")}
+EMITTER_ATTRIBUTES = {"warpSim:rate": (Sdf.ValueTypeNames.Float, "rate"),
+                      "warpSim:lifetime": (Sdf.ValueTypeNames.Float2, "lifetime"),
+                      "warpSim:speed": (Sdf.ValueTypeNames.Float2, "speed"),
+                      "warpSim:spread": (Sdf.ValueTypeNames.Float, "spread"),
+                      "warpSim:size": (Sdf.ValueTypeNames.Float2, "size"),
+                      "warpSim:mass": (Sdf.ValueTypeNames.Float2, "mass"),
+                      "warpSim:shape": (Sdf.ValueTypeNames.Token, "shape"),
+                      "warpSim:radius": (Sdf.ValueTypeNames.Float, "radius"),
+                      "warpSim:seed": (Sdf.ValueTypeNames.Int, "seed")}
+
+
+def triangles(mesh, time) -> np.ndarray:
+    """A UsdGeom.Mesh's faces as triangles (each polygon a fan from its first corner), (F, 3)."""
+    counts = np.array(mesh.GetFaceVertexCountsAttr().Get(time), dtype=np.int64)
+    indices = np.array(mesh.GetFaceVertexIndicesAttr().Get(time), dtype=np.int64)
+    faces, start = [], 0
+    for count in counts:
+        ring = indices[start:start + count]
+        faces.extend((ring[0], ring[k], ring[k + 1]) for k in range(1, count - 1))
+        start += count
+    return np.array(faces, dtype=np.int64).reshape(-1, 3)
+
+
+def _values(prim, names, time) -> dict:
+    """The add_* keywords of the authored attributes among ``names``."""
+    found = {}
+    for name, (_, keyword) in names.items():
+        attribute = prim.GetAttribute(name)
+        if attribute and attribute.HasAuthoredValue():
+            value = attribute.Get(time)
+            if isinstance(value, str):
+                found[keyword] = value
+            elif np.ndim(value) == 0 and not hasattr(value, "__len__"):
+                found[keyword] = value.item() if isinstance(value, np.generic) else value
+            else:
+                found[keyword] = np.array(value).tolist()
+    return found
+
+
+def _flag(prim, name: str) -> bool:
+    attribute = prim.GetAttribute(name)
+    return bool(attribute and attribute.Get())
+
+
+def _world_points(prim, points, time, units) -> np.ndarray:
+    world = np.array(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(time), dtype=np.float64)  # row vectors
+    homogeneous = np.hstack([np.asarray(points, dtype=np.float64), np.ones((len(points), 1))])
+    return units.point((homogeneous @ world)[:, :3])
+
+
+def read(scene, stage, time, units, link) -> None:
+    """Add every warpSim cloth mesh, particle set and emitter of ``stage`` to ``scene``; ``link(path, kind, index)``
+    records each."""
+    for prim in stage.Traverse():
+        if prim.IsA(UsdGeom.Mesh) and _flag(prim, CLOTH):
+            mesh = UsdGeom.Mesh(prim)
+            faces = triangles(mesh, time)
+            vertices = _world_points(prim, mesh.GetPointsAttr().Get(time), time, units)
+            options = _values(prim, CLOTH_ATTRIBUTES, time)
+            ids = scene.add_cloth_mesh(trimesh.Trimesh(vertices, faces, process=False),
+                                       name=_name(scene, prim), **options)
+            link(str(prim.GetPath()), "cloth", ids)
+        elif prim.IsA(UsdGeom.Points) and _flag(prim, PARTICLES):
+            points = UsdGeom.Points(prim)
+            positions = _world_points(prim, points.GetPointsAttr().Get(time), time, units)
+            velocities = points.GetVelocitiesAttr().Get(time)
+            velocities = None if not velocities else units.direction(np.array(velocities)) * units.meters_per_unit
+            widths = points.GetWidthsAttr().Get(time)
+            options = _values(prim, PARTICLE_ATTRIBUTES, time)
+            if "mass" in options and len(options["mass"]) == 1:
+                options["mass"] = options["mass"][0]
+            radius = 0.01 if not widths else units.length(np.array(widths, dtype=np.float64)) / 2.0
+            if np.ndim(radius) and len(radius) == 1:
+                radius = float(radius[0])
+            ids = scene.add_particles(positions, velocities, radius=radius, name=_name(scene, prim), **options)
+            link(str(prim.GetPath()), "particles", ids)
+        elif prim.IsA(UsdGeom.Xformable) and _flag(prim, EMITTER):
+            world = np.array(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(time), dtype=np.float64)
+            direction = units.direction(world[1, :3] / np.linalg.norm(world[1, :3]))   # the prim's +Y
+            emitter = scene.add_emitter(position=units.point(world[3, :3]), direction=direction,
+                                        name=_name(scene, prim), **_values(prim, EMITTER_ATTRIBUTES, time))
+            link(str(prim.GetPath()), "particles", np.arange(emitter.start_slot, emitter.start_slot + emitter.capacity))
+
+
+def _name(scene, prim) -> str:
+    taken = {group.name for group in scene.particle_groups} | {e.name for e in scene.emitters}
+    label, k = prim.GetName(), 1
+    while label in taken:
+        label, k = f"{prim.GetName()}_{k}", k + 1
+    return label
+
+
+def write(prim, names: dict, values: dict) -> None:
+    """Author ``values`` (add_* keywords) on ``prim`` under their ``warpSim:`` names (those of ``names``)."""
+    for name, (type_name, keyword) in names.items():
+        value = values.get(keyword)
+        if value is not None:
+            prim.CreateAttribute(name, type_name, custom=True).Set(value)

@@ -1,0 +1,351 @@
+"""Scene.from_usd: a stage's UsdPhysics description (and warp_sim's own ``warpSim:`` attributes) as a Scene.
+
+The schema's rules are usd-core's: its parser (``UsdPhysics.LoadUsdPhysicsFromRange``) resolves bodies, shapes with
+their scaled sizes and poses relative to their body, materials and the physics scene with its defaults, and its
+``RigidBodyAPI.ComputeMassProperties`` applies the precedence of mass, density and materials, with warp_sim's shapes
+supplying each shape's volume, inertia and centre of mass. Everything is converted to SI and Y up
+(``usd_units.StageUnits``); ``scene.usd_source`` keeps what the way back needs (``stages.overlay``).
+"""
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import trimesh
+from pxr import Gf, Usd, UsdGeom, UsdPhysics
+
+from ..util import checks
+from ..util.rotations import matrix_to_quat
+from . import usd_attributes
+from .shapes import Box, Capsule, Cylinder, MassProperties, MeshShape, Sphere
+from .usd_units import StageUnits
+
+EARTH_GRAVITY = 9.80665   # [m/s^2], the schema's default magnitude
+DEFAULT_DENSITY = 1000.0   # [kg/m^3], the schema's default
+# the rotation taking warp_sim's capsule and cylinder axis (Y) onto the schema's axis
+AXIS_ROTATIONS = {"X": np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), "Y": np.eye(3),
+                  "Z": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])}
+SHAPE_TYPES = {"CubeShape", "SphereShape", "CapsuleShape", "CylinderShape", "MeshShape", "PlaneShape"}
+UNSUPPORTED = {"ConeShape": "cone shapes", "CustomShape": "custom shapes", "SpherePointsShape": "sphere points",
+               "Capsule1Shape": "capsules with two radii", "Cylinder1Shape": "cylinders with two radii",
+               "Articulation": "articulations", "CollisionGroup": "collision groups"}
+
+
+@dataclass
+class PrimLink:
+    """How a simulated prim maps to the scene, and back.
+
+    path: the prim's path; kind: "body", "collider", "cloth" or "particles"; index: the body or collider index,
+    or the particle ids; offset: the shape's frame in the prim's frame (rotation (3, 3), position (3,) [m]) for
+    bodies; world: the prim's local-to-world matrix at the read time (4, 4), stage units, column vectors;
+    parent: its parent's (4, 4); scale: its authored local scale (3,)
+    """
+    path: str
+    kind: str
+    index: object
+    world: np.ndarray
+    parent: np.ndarray
+    scale: np.ndarray
+    offset: tuple = (np.eye(3), np.zeros(3))
+
+
+@dataclass
+class UsdSource:
+    """The stage a Scene was read from: its file (None for an in-memory stage), units, time base and the links."""
+    path: str | None
+    units: StageUnits
+    time_codes_per_second: float
+    start_time_code: float
+    links: list[PrimLink] = field(default_factory=list)
+
+
+def _matrix(gf) -> np.ndarray:
+    """A Gf.Matrix4d (row vectors) as a numpy (4, 4) for column vectors."""
+    return np.array(gf, dtype=np.float64).T
+
+
+def _rotation(quat) -> np.ndarray:
+    q = Gf.Rotation(Gf.Quatd(quat.GetReal(), Gf.Vec3d(quat.GetImaginary())))
+    return np.array(Gf.Matrix3d(q), dtype=np.float64).T
+
+
+def _vec(v) -> np.ndarray:
+    return np.array(list(v), dtype=np.float64)
+
+
+class _Reader:
+    def __init__(self, scene_class, source, time, precision):
+        self.stage, self.file = _open(source)
+        self.time = Usd.TimeCode.Default() if time is None else Usd.TimeCode(time)
+        stage = self.stage
+        self.units = StageUnits(UsdGeom.GetStageMetersPerUnit(stage), UsdPhysics.GetStageKilogramsPerUnit(stage),
+                                str(UsdGeom.GetStageUpAxis(stage)))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)   # the new name takes other arguments
+            parsed = UsdPhysics.LoadUsdPhysicsFromRange(stage, ["/"])
+        self.descs = {}
+        for kind, (paths, descs) in parsed.items():
+            for path, desc in zip(paths, descs):
+                self.descs.setdefault(kind.name, {})[str(path)] = desc
+        self.scene = scene_class(gravity=self._gravity(), precision=precision)
+        self.source = UsdSource(self.file, self.units, stage.GetTimeCodesPerSecond(), stage.GetStartTimeCode())
+        self.skipped: dict[str, list[str]] = {}
+        self.friction_warned = False
+
+    def _gravity(self) -> np.ndarray:
+        scenes = self.descs.get("Scene", {})
+        if not scenes:
+            warnings.warn(f"{self._name()}: no UsdPhysics.Scene, so Earth's gravity ({EARTH_GRAVITY} m/s^2) acts "
+                          "against the up axis", UserWarning, stacklevel=4)
+            return np.array([0.0, -EARTH_GRAVITY, 0.0])
+        desc = next(iter(scenes.values()))
+        return self.units.direction(_vec(desc.gravityDirection)) * self.units.length(desc.gravityMagnitude)
+
+    def _name(self) -> str:
+        return repr(self.file) if self.file else "the stage"
+
+    # ---- shapes ------------------------------------------------------------------------------------------------
+    def _shape(self, kind: str, desc, prim_path: str):
+        """(warp_sim shape, its frame in the body's or world's frame (R, p [m])) of a shape desc, or None."""
+        u = self.units
+        R, p = _rotation(desc.localRot), u.length(_vec(desc.localPos))
+        if kind == "CubeShape":
+            return Box(u.length(_vec(desc.halfExtents))), R, p
+        if kind == "SphereShape":
+            return Sphere(float(u.length(desc.radius))), R, p
+        if kind in ("CapsuleShape", "CylinderShape"):
+            make = Capsule if kind == "CapsuleShape" else Cylinder
+            return (make(float(u.length(desc.radius)), float(u.length(desc.halfHeight))),
+                    R @ AXIS_ROTATIONS[str(desc.axis).rsplit(".", 1)[-1]], p)
+        if kind == "MeshShape":
+            mesh = _mesh(self.stage.GetPrimAtPath(prim_path), self.time, u.length(_vec(desc.meshScale)))
+            return mesh, R, p
+        return None
+
+    def _material(self, desc) -> tuple[float, float, float | None]:
+        """(restitution, friction, density [kg/m^3] or None) of a shape's bound physics material."""
+        materials = self.descs.get("RigidBodyMaterial", {})
+        for path in desc.materials:
+            material = materials.get(str(path))
+            if material is not None:
+                if material.staticFriction != material.dynamicFriction and not self.friction_warned:
+                    self.friction_warned = True
+                    warnings.warn(f"{self._name()}: material {path} has staticFriction {material.staticFriction:g} "
+                                  f"and dynamicFriction {material.dynamicFriction:g}; warp_sim has one Coulomb "
+                                  "coefficient and uses the dynamic one (said once)", UserWarning, stacklevel=5)
+                density = material.density * self.units.kilograms_per_unit / self.units.meters_per_unit ** 3
+                return float(material.restitution), float(material.dynamicFriction), density or None
+        return 0.0, 0.5, None
+
+    def _all_shapes(self) -> dict[str, tuple[str, object]]:
+        return {path: (kind, desc) for kind in SHAPE_TYPES for path, desc in self.descs.get(kind, {}).items()}
+
+    # ---- bodies -------------------------------------------------------------------------------------------------
+    def bodies(self) -> None:
+        shapes = self._all_shapes()
+        for path, desc in self.descs.get("RigidBody", {}).items():
+            parts = [(str(p), *shapes[str(p)]) for p in desc.collisions if str(p) in shapes]
+            enabled = [(p, kind, d) for p, kind, d in parts if d.collisionEnabled]
+            if not desc.rigidBodyEnabled or desc.kinematicBody:
+                if desc.kinematicBody and desc.rigidBodyEnabled:
+                    self.skipped.setdefault("kinematic bodies (static at their pose at the read time)",
+                                            []).append(path)
+                for shape_path, kind, shape_desc in enabled:
+                    self._collider(shape_path, kind, shape_desc, body=desc)
+                continue
+            self._body(path, desc, parts, enabled)
+
+    def _body(self, path: str, desc, parts, enabled) -> None:
+        """One dynamic body: collision shapes from ``enabled``, mass from every shape of ``parts`` (usd-core counts
+        a shape whose collisions are disabled, so warp_sim does too)."""
+        u = self.units
+        if not enabled:
+            self.skipped.setdefault("rigid bodies without an enabled collision shape", []).append(path)
+            return
+        built = {}
+        for shape_path, kind, shape_desc in parts:
+            made = self._shape(kind, shape_desc, shape_path)
+            if made is None or (isinstance(made[0], MeshShape) and not made[0].solid):
+                self.skipped.setdefault("dynamic bodies with open meshes or planes (need a closed shape)",
+                                        []).append(path)
+                return
+            built[shape_path] = made
+        restitution, friction, _ = self._material(enabled[0][2])
+        prim = self.stage.GetPrimAtPath(path)
+        mass, diagonal, com, axes = UsdPhysics.RigidBodyAPI(prim).ComputeMassProperties(
+            lambda shape_prim: self._mass_information(built.get(str(shape_prim.GetPath()))))
+        if mass <= 0.0:
+            self.skipped.setdefault("bodies of zero mass", []).append(path)
+            return
+        colliding = [built[shape_path] for shape_path, _, _ in enabled]
+        if len(colliding) == 1:
+            shape, O, o = colliding[0]
+        else:   # a compound: its parts' surfaces in the body's frame, one closed mesh
+            shape, O, o = _compound(colliding), np.eye(3), np.zeros(3)
+    def _mass_information(self, made):
+        """usd-core's callback: a shape's volume, unit-density inertia and centre of mass, in stage units."""
+        info = UsdPhysics.RigidBodyAPI.MassInformation()
+        if made is None:
+            info.volume = -1.0   # not a shape warp_sim can build: usd-core leaves it out
+            return info
+        shape, O, o = made
+        unit = shape.mass_properties(density=1.0)
+        length = self.units.meters_per_unit
+        info.volume = unit.mass / length ** 3
+        info.inertia = Gf.Matrix3f(*(unit.inertia / length ** 5).ravel().tolist())   # density 1 in stage units
+        info.centerOfMass = Gf.Vec3f(*(unit.com / length).tolist())
+        info.localPos = Gf.Vec3f(*(o / length).tolist())
+        q = matrix_to_quat(O)
+        info.localRot = Gf.Quatf(float(q[3]), float(q[0]), float(q[1]), float(q[2]))
+        return info
+
+    # ---- static colliders ----------------------------------------------------------------------------------------
+    def colliders(self) -> None:
+        for path, (kind, desc) in self._all_shapes().items():
+            if desc.rigidBody.isEmpty and desc.collisionEnabled:
+                self._collider(path, kind, desc)
+
+    def _collider(self, path: str, kind: str, desc, body=None) -> None:
+        u = self.units
+        restitution, friction, _ = self._material(desc)
+        R_body = np.eye(3) if body is None else _rotation(body.rotation)
+        p_body = np.zeros(3) if body is None else _vec(body.position)
+        if kind == "PlaneShape":
+            axis = str(desc.axis).rsplit(".", 1)[-1]
+            normal_stage = R_body @ _rotation(desc.localRot)[:, "XYZ".index(axis)]
+            point = u.point(p_body + R_body @ _vec(desc.localPos))
+            normal = u.direction(normal_stage)
+            index = self.scene.add_plane(normal, float(normal @ point), restitution, friction,
+                                         name=self._unique(self.stage.GetPrimAtPath(path).GetName(),
+                                                           self.scene.planes))
+            self._link(path, "plane", index)
+            return
+        made = self._shape(kind, desc, path)
+        if made is None:
+            return
+        shape, O, o = made
+        if body is not None:
+            O, o = u.rotation(R_body) @ O, u.point(p_body) + u.rotation(R_body) @ o
+        else:
+            O = u.rotation(O)
+            o = u.point(o / u.meters_per_unit)
+        index = self.scene.add_collider(shape, position=o, orientation=matrix_to_quat(O), restitution=restitution,
+                                        friction=friction,
+                                        name=self._unique(self.stage.GetPrimAtPath(path).GetName(),
+                                                          self.scene.colliders))
+        self._link(path, "collider", index)
+
+    # ---- everything else ----------------------------------------------------------------------------------------
+    def others(self) -> None:
+        for kind, descs in self.descs.items():
+            if kind.endswith("Joint"):
+                self.skipped.setdefault("joints (not simulated: the bodies move freely)", []).extend(descs)
+            elif kind in UNSUPPORTED:
+                self.skipped.setdefault(UNSUPPORTED[kind] + " (not simulated)", []).extend(descs)
+        filtered = sorted({str(d.primPath) for descs in self.descs.values() for d in descs.values()
+                           if list(getattr(d, "filteredCollisions", []) or [])})
+        if filtered:
+            self.skipped.setdefault("filtered collision pairs (they collide here)", []).extend(filtered)
+        for prim in self.stage.Traverse():
+            foreign = [name for name in prim.GetAppliedSchemas() if name.startswith(("Physx", "Newton", "Mujoco"))]
+            if foreign:
+                self.skipped.setdefault("other solvers' schemas (ignored)", []).append(str(prim.GetPath()))
+
+    def warn_skipped(self) -> None:
+        for what, paths in self.skipped.items():
+            shown = sorted(set(paths))
+            more = f" and {len(shown) - 5} more" if len(shown) > 5 else ""
+            warnings.warn(f"{self._name()}: {what}: {', '.join(shown[:5])}{more}", UserWarning, stacklevel=4)
+
+    def _link(self, path: str, kind: str, index, offset=None) -> None:
+        prim = self.stage.GetPrimAtPath(path)
+        xformable = UsdGeom.Xformable(prim)
+        world = _matrix(xformable.ComputeLocalToWorldTransform(self.time))
+        parent = _matrix(xformable.ComputeParentToWorldTransform(self.time))
+        local = np.linalg.inv(parent) @ world
+        scale = np.linalg.norm(local[:3, :3], axis=0)
+        link = PrimLink(path, kind, index, world, parent, scale)
+        if offset is not None:
+            link.offset = offset
+        self.source.links.append(link)
+        self.scene.usd_paths[path] = (kind, index)
+
+    @staticmethod
+    def _unique(name: str, existing) -> str:
+        taken = {item.name for item in existing}
+        label, k = name, 1
+        while label in taken:
+            label, k = f"{name}_{k}", k + 1
+        return label
+
+
+def _open(source):
+    if isinstance(source, Usd.Stage):
+        layer = source.GetRootLayer()
+        return source, (layer.realPath or None)
+    if not isinstance(source, (str, os.PathLike)):
+        raise checks.fail("path_or_stage", source, "expected a USD file path or a pxr.Usd.Stage")
+    path = os.fspath(source)
+    if not os.path.isfile(path):
+        raise checks.fail("path_or_stage", path, "no such file")
+    try:
+        stage = Usd.Stage.Open(path)
+    except Exception as error:   # pxr.Tf.ErrorException
+        raise checks.fail("path_or_stage", path, f"cannot be read as USD ({str(error).strip().splitlines()[-1]})") \
+            from None
+    return stage, os.path.abspath(path)
+
+
+def _mesh(prim, time, scale: np.ndarray) -> MeshShape:
+    """A UsdGeom.Mesh's points (scaled to the body's world scale) and faces (fans) as a MeshShape: solid when
+    closed, a surface otherwise."""
+    mesh = UsdGeom.Mesh(prim)
+    points = np.array(mesh.GetPointsAttr().Get(time), dtype=np.float64) * scale
+    surface = trimesh.Trimesh(points, usd_attributes.triangles(mesh, time), process=False)
+    if str(mesh.GetOrientationAttr().Get()) == "leftHanded":
+        surface.invert()
+    return MeshShape(surface, solid=bool(surface.is_watertight))
+
+
+def _compound(parts) -> MeshShape:
+    """Several shapes of one body, each at its frame (R, p) in the body's frame, as one closed mesh (the union of
+    their closed surfaces; its contacts follow every part's surface, its mass properties are set separately)."""
+    meshes = []
+    for shape, R, p in parts:
+        surface = _surface(shape)
+        surface.apply_transform(np.block([[R, p[:, None]], [np.zeros((1, 3)), np.ones((1, 1))]]))
+        meshes.append(surface)
+    return MeshShape(trimesh.util.concatenate(meshes), solid=True)
+
+
+def _surface(shape) -> trimesh.Trimesh:
+    if isinstance(shape, MeshShape):
+        return trimesh.Trimesh(shape.vertices, shape.faces, process=False)
+    if isinstance(shape, Box):
+        return trimesh.creation.box(extents=2.0 * np.asarray(shape.size))
+    if isinstance(shape, Sphere):
+        return trimesh.creation.icosphere(3, radius=shape.radius)
+    turn = trimesh.transformations.rotation_matrix(-math.pi / 2.0, (1.0, 0.0, 0.0))   # trimesh's Z to our Y
+    if isinstance(shape, Capsule):
+        return trimesh.creation.capsule(2.0 * shape.half_height, shape.radius, count=[16, 16]).apply_transform(turn)
+    return trimesh.creation.cylinder(shape.radius, 2.0 * shape.half_height, sections=32).apply_transform(turn)
+
+
+def read(scene_class, source, time=0, precision: str = "float32"):
+    """Scene.from_usd (see there)."""
+    reader = _Reader(scene_class, source, time, precision)
+    reader.scene.usd_source = reader.source
+    reader.bodies()
+    reader.colliders()
+    usd_attributes.read(reader.scene, reader.stage, reader.time, reader.units, reader._link)
+    reader.others()
+    reader.warn_skipped()
+    scene = reader.scene
+    if scene.body_count == 0 and scene.particle_count == 0 and not scene.emitters:
+        raise checks.fail("path_or_stage", reader.file or "<stage>",
+                          "has nothing to simulate: no enabled rigid body (PhysicsRigidBodyAPI with a collision "
+                          "shape), no warpSim:cloth mesh, warpSim:particles points or warpSim:emitter")
+    return scene
