@@ -9,6 +9,7 @@ import time
 from . import studies
 from .core.guards import SimulationDiverged
 from .demo import demo_scene
+from .scene import Scene
 from .simulator import RunInterrupted, Simulator
 from .solvers import INTEGRATORS, RK45
 from .studies import CASES, PROBLEMS
@@ -35,6 +36,24 @@ def _demo(args) -> int:
                    keep_checkpoint=args.keep_checkpoint)
     elapsed = time.perf_counter() - started
     print(f"wrote {path} ({round(args.seconds * args.fps)} frames) in {elapsed:.2f} s wall time")
+    return 0
+
+
+def _run(args) -> int:
+    """warp-sim run: a UsdPhysics stage simulated into an animation layer over it (or one flattened stage)."""
+    scene = Scene.from_usd(args.scene, precision=args.precision)
+    source = scene.usd_source
+    fps = args.fps or source.time_codes_per_second
+    sim = Simulator(scene, integrator=_integrator(args), device=args.device)
+    print(f"warp-sim run: {args.scene} -> {sim.scene!r} on {sim.device.alias}, {args.integrator}, "
+          f"{args.seconds:g} s at {fps:g} fps x {args.substeps} substeps")
+    started = time.perf_counter()
+    path = sim.run(seconds=args.seconds, fps=fps, substeps=args.substeps, usd=args.out,
+                   progress=not args.no_progress, chunk_frames=args.chunk_frames, resume=args.resume,
+                   keep_checkpoint=args.keep_checkpoint, over=args.scene, flatten=args.flatten)
+    kind = "stage" if args.flatten else f"animation layer over {args.scene}"
+    print(f"wrote {path} ({round(args.seconds * fps)} frames, {kind}) in {time.perf_counter() - started:.2f} s "
+          "wall time")
     return 0
 
 
@@ -67,29 +86,48 @@ def build_parser() -> argparse.ArgumentParser:
         description="Simulate particles bouncing on the ground, a spring chain hanging from a pinned "
                     "particle, rigid bodies thrown tumbling into the air and a particle fountain, and write "
                     "the animation to a USD stage.")
-    demo.add_argument("--device", default=None,
-                      help="Warp device, e.g. cpu or cuda:0 (default: cuda when present, else cpu)")
-    demo.add_argument("--integrator", default="rk4", choices=sorted(INTEGRATORS),
-                      help="ODE solver (default: rk4)")
-    demo.add_argument("--seconds", type=float, default=4.0, help="simulated seconds (default: 4)")
-    demo.add_argument("--fps", type=float, default=60.0, help="frames per second of the stage (default: 60)")
-    demo.add_argument("--substeps", type=int, default=8, help="solver steps per frame (default: 8)")
-    demo.add_argument("--out", default="demo.usdc",
-                      help="output stage, .usdc/.usd (binary) or .usda (text) (default: demo.usdc)")
-    demo.add_argument("--rtol", type=float, default=None, help="rk45's relative tolerance (default: 1e-6)")
-    demo.add_argument("--atol", type=float, default=None, help="rk45's absolute tolerance (default: 1e-8)")
-    demo.add_argument("--chunk-frames", type=int, default=None, metavar="N",
-                      help="frames per chunk written to disk with a checkpoint (default: 240, fewer for big scenes)")
-    demo.add_argument("--resume", action="store_true",
-                      help="go on from the checkpoint of an interrupted run to the same --out (else start over)")
-    demo.add_argument("--keep-checkpoint", action="store_true",
-                      help="keep the run's chunks and checkpoint beside the output when it completes")
-    demo.add_argument("--no-progress", action="store_true", help="no progress bar")
-    demo.add_argument("--verbose", action="store_true",
-                      help="show Warp's compilation messages, and a traceback with any error")
+    _run_options(demo, fps=60.0, out="demo.usdc")
     demo.set_defaults(run=_demo)
+    run = commands.add_parser(
+        "run", help="simulate a UsdPhysics stage and write the animation as a layer over it",
+        description="Read the rigid bodies, colliders, materials and warpSim cloth, particles and emitters of a "
+                    "UsdPhysics stage (any units and up axis), simulate them, and write an animation layer of "
+                    "overrides on the stage's own prims that sublayers it (or, with --flatten, one stage).")
+    run.add_argument("scene", help="the input stage (.usd, .usda, .usdc)")
+    _run_options(run, fps=None, out=None)
+    run.add_argument("--precision", default="float32", choices=["float32", "float64"],
+                     help="the simulated state's precision (default: float32)")
+    run.add_argument("--flatten", action="store_true",
+                     help="write one standalone stage (the input composed with the animation) instead of a layer")
+    run.set_defaults(run=_run)
     _study_parser(commands, INTEGRATORS)
     return parser
+
+
+def _run_options(parser, fps: float | None, out: str | None) -> None:
+    """The options demo and run share: device, solver, time, output, checkpoints, progress, verbosity."""
+    parser.add_argument("--device", default=None,
+                        help="Warp device, e.g. cpu or cuda:0 (default: cuda when present, else cpu)")
+    parser.add_argument("--integrator", default="rk4", choices=sorted(INTEGRATORS), help="ODE solver (default: rk4)")
+    parser.add_argument("--seconds", type=float, default=4.0, help="simulated seconds (default: 4)")
+    parser.add_argument("--fps", type=float, default=fps,
+                        help="frames per second of the output (default: " + (f"{fps:g})" if fps else
+                                                                              "the stage's timeCodesPerSecond)"))
+    parser.add_argument("--substeps", type=int, default=8, help="solver steps per frame (default: 8)")
+    parser.add_argument("--out", default=out, required=out is None,
+                        help="output stage, .usdc/.usd (binary) or .usda (text)" + (f" (default: {out})" if out
+                                                                                     else ""))
+    parser.add_argument("--rtol", type=float, default=None, help="rk45's relative tolerance (default: 1e-6)")
+    parser.add_argument("--atol", type=float, default=None, help="rk45's absolute tolerance (default: 1e-8)")
+    parser.add_argument("--chunk-frames", type=int, default=None, metavar="N",
+                        help="frames per chunk written to disk with a checkpoint (default: 240, fewer for big scenes)")
+    parser.add_argument("--resume", action="store_true",
+                        help="go on from the checkpoint of an interrupted run to the same --out (else start over)")
+    parser.add_argument("--keep-checkpoint", action="store_true",
+                        help="keep the run's chunks and checkpoint beside the output when it completes")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--verbose", action="store_true",
+                        help="show Warp's compilation messages, and a traceback with any error")
 
 
 def _study_parser(commands, integrators) -> None:

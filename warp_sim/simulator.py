@@ -18,6 +18,7 @@ from .core.persistence import Persistent
 from .kernels import rigid as rigid_kernels
 from .scene import Scene
 from .stages import StageWriter, stage_layout
+from .stages.overlay import Overlay
 from .util import checks
 from .util.fingerprint import fingerprint
 from .util.version import __version__
@@ -270,7 +271,8 @@ class Simulator(Persistent):
             warnings.warn(message, RuntimeWarning, stacklevel=3)
 
     def run(self, seconds: float, fps: float = 60.0, substeps: int = 8, usd=None, progress: bool = True,
-            chunk_frames: int | None = None, resume: bool = False, keep_checkpoint: bool = False):
+            chunk_frames: int | None = None, resume: bool = False, keep_checkpoint: bool = False, over=None,
+            flatten: bool = False):
         """Simulate the frames of ``frames(seconds, fps, substeps)``, writing each to USD.
 
         usd: output path (.usdc, .usd or .usda) or None; checked before anything is simulated (an existing
@@ -283,6 +285,9 @@ class Simulator(Persistent):
         arguments (a fingerprint of them all), or ValueError refuses it before anything is changed.
         keep_checkpoint: leave the run's folder of chunks and checkpoint beside the output (hidden, until the
         next run to the same path) instead of removing it when the stage is complete
+        over: for a scene read by ``Scene.from_usd``, its stage (the path or the Usd.Stage): the output is then an
+        animation layer of overrides on that stage's own prims, sublayering it, in its units, axes and time codes
+        (``stages.overlay``); flatten: with over, write one standalone stage instead
 
         On divergence the stage keeps every frame before the bad one and SimulationDiverged propagates, with
         ``frames_written`` and ``usd`` set; with guard=False a frame holding a non-finite value counts as
@@ -292,11 +297,15 @@ class Simulator(Persistent):
         written path (a pathlib.Path), or None without usd.
         """
         total, fps, substeps = _frame_arguments(seconds, fps, substeps)
-        for name, flag in (("progress", progress), ("resume", resume), ("keep_checkpoint", keep_checkpoint)):
+        for name, flag in (("progress", progress), ("resume", resume), ("keep_checkpoint", keep_checkpoint),
+                           ("flatten", flatten)):
             if not isinstance(flag, bool):
                 raise checks.fail(name, flag, "expected True or False")
-        if resume and usd is None:
-            raise checks.fail("resume", resume, "needs usd=: a checkpoint is kept beside a run's output")
+        if (resume or over is not None) and usd is None:
+            raise checks.fail("resume" if resume else "over", resume if resume else over,
+                              "needs usd=: the output path")
+        if over is not None and self.scene.usd_source is None:
+            raise checks.fail("over", over, "needs a scene read by Scene.from_usd (its prims are what it overrides)")
         if chunk_frames is None:   # a chunk of at most about 256 MB of samples
             frame_bytes = 40 * self.model.particle_count + 28 * self.model.body_count + 1
             chunk_frames = int(min(240, max(1, 256 * 2**20 // frame_bytes)))
@@ -304,8 +313,11 @@ class Simulator(Persistent):
         writer, first, start_time = None, 0, self.time
         if usd is not None:
             key = fingerprint(__version__, self.scene, self.settings, type(self.integrator).__name__,
-                              persistence.settings(self.integrator), [total, fps, substeps, chunk_frames])
-            writer = StageWriter(usd, fps, stage_layout(self.scene), chunk_frames, key=key, resume=resume)
+                              persistence.settings(self.integrator), [total, fps, substeps, chunk_frames],
+                              None if over is None else [str(over), flatten])
+            overlay = None if over is None else Overlay(self.scene.usd_source, over, self.scene.bodies, flatten)
+            writer = StageWriter(usd, fps, stage_layout(self.scene) if overlay is None else None, chunk_frames,
+                                 key=key, resume=resume, overlay=overlay)
             if writer.resumed is not None:
                 arrays, meta = writer.resumed
                 values = dict(meta["values"])

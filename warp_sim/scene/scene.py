@@ -7,7 +7,7 @@ import numpy as np
 
 from ..util import checks
 from ..util.rotations import quat_to_matrix
-from . import cloth
+from . import cloth, usd_reader, usd_writer
 from .emitters import make_emitter
 from .fields import Field
 from .shapes import MassProperties, Shape
@@ -151,6 +151,9 @@ class Scene:
     angular_drag: the default rotational viscosity of bodies, the torque -angular_drag omega [N m s/rad]
     wind: the air's velocity [m/s], (3,)
     precision: "float32" or "float64" for the whole simulated state
+    usd_paths: for a scene read by ``from_usd``, each simulated prim's path -> (kind, index): "body" or "collider"
+        and its index, "plane" and its plane index, "cloth" or "particles" and the particle ids; else empty
+    usd_source: for such a scene, the stage it came from (scene.usd_reader.UsdSource), else None
     """
 
     def __init__(self, gravity=(0.0, -9.81, 0.0), precision: str = "float32", drag: float = 0.0,
@@ -172,6 +175,18 @@ class Scene:
             "position", "velocity", "mass", "radius", "pinned", "restitution", "friction")}
         self._springs: dict[str, list[np.ndarray]] = {key: [] for key in (
             "pairs", "stiffness", "damping", "rest_length")}
+        self.usd_paths: dict[str, tuple] = {}
+        self.usd_source = None
+
+    @classmethod
+    def from_usd(cls, path_or_stage, *, time=0, precision: str = "float32") -> Scene:
+        """A Scene from a stage's UsdPhysics description (and ``warpSim:`` attributes) at time code ``time``, in SI
+        and Y up; what it cannot simulate is warned about once per kind, naming the prims (docs/usd.md)."""
+        return usd_reader.read(cls, path_or_stage, time, precision)
+
+    def to_usd(self, path) -> str:
+        """Write the scene as a UsdPhysics stage (Y up, metres) that from_usd reads back; returns the path."""
+        return usd_writer.write(self, path)
 
     # particles -----------------------------------------------------------------
     @property
@@ -469,7 +484,7 @@ class Scene:
                        linear_velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0),
                        restitution: float = 0.5, friction: float = 0.4, drag: float | None = None,
                        angular_drag: float | None = None, name: str | None = None,
-                       color=(0.6, 0.6, 0.65)) -> int:
+                       color=(0.6, 0.6, 0.65), mass_properties: MassProperties | None = None) -> int:
         """Add a rigid body; returns its body index.
 
         shape: a ws.Sphere, Box, Capsule, Cylinder, MeshShape (solid) or PointMasses; density
@@ -478,9 +493,13 @@ class Scene:
         mass then lies at position + R com); orientation: quaternion (x, y, z, w),
         normalised with a warning if off unit length; linear_velocity of the centre of
         mass [m/s] and angular_velocity [rad/s], world frame; restitution in [0, 1],
-        friction >= 0; drag [N s/m] and angular_drag [N m s/rad] default to the scene's.
+        friction >= 0; drag [N s/m] and angular_drag [N m s/rad] default to the scene's; mass_properties (instead
+        of density or mass): the body's own MassProperties in the shape's frame (a USD MassAPI's).
         """
-        properties = _shape(shape).mass_properties(density=density, mass=mass)
+        if mass_properties is not None and (not isinstance(mass_properties, MassProperties) or density or mass):
+            raise checks.fail("mass_properties", mass_properties, "expected a MassProperties, without density or mass")
+        properties = mass_properties or _shape(shape).mass_properties(density=density, mass=mass)
+        _shape(shape)
         q = checks.unit_quaternion("orientation", orientation)
         R = quat_to_matrix(q)
         inertia_world = R @ properties.inertia @ R.T

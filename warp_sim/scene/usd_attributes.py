@@ -106,7 +106,8 @@ def read(scene, stage, time, units, link) -> None:
             direction = units.direction(world[1, :3] / np.linalg.norm(world[1, :3]))   # the prim's +Y
             emitter = scene.add_emitter(position=units.point(world[3, :3]), direction=direction,
                                         name=_name(scene, prim), **_values(prim, EMITTER_ATTRIBUTES, time))
-            link(str(prim.GetPath()), "particles", np.arange(emitter.start_slot, emitter.start_slot + emitter.capacity))
+            link(str(prim.GetPath()), "particles", np.arange(emitter.start_slot, emitter.start_slot + emitter.capacity),
+                 pooled=True)
 
 
 def _name(scene, prim) -> str:

@@ -41,7 +41,7 @@ class PrimLink:
     path: the prim's path; kind: "body", "collider", "cloth" or "particles"; index: the body or collider index,
     or the particle ids; offset: the shape's frame in the prim's frame (rotation (3, 3), position (3,) [m]) for
     bodies; world: the prim's local-to-world matrix at the read time (4, 4), stage units, column vectors;
-    parent: its parent's (4, 4); scale: its authored local scale (3,)
+    parent: its parent's (4, 4); scale: its authored local scale (3,); pooled: an emitter's pool
     """
     path: str
     kind: str
@@ -50,6 +50,7 @@ class PrimLink:
     parent: np.ndarray
     scale: np.ndarray
     offset: tuple = (np.eye(3), np.zeros(3))
+    pooled: bool = False
 
 
 @dataclass
@@ -185,6 +186,22 @@ class _Reader:
             shape, O, o = colliding[0]
         else:   # a compound: its parts' surfaces in the body's frame, one closed mesh
             shape, O, o = _compound(colliding), np.eye(3), np.zeros(3)
+        P = _rotation(axes)
+        inertia_body = P @ np.diag(u.inertia(_vec(diagonal))) @ P.T
+        com_body = u.length(_vec(com))
+        properties = MassProperties(u.mass(mass), O.T @ (com_body - o), O.T @ inertia_body @ O)
+        R_world = u.rotation(_rotation(desc.rotation))
+        origin = u.point(_vec(desc.position)) + R_world @ o
+        parent = _matrix(UsdGeom.Xformable(prim).ComputeParentToWorldTransform(self.time))
+        to_world = u.C @ parent[:3, :3] / np.cbrt(max(abs(np.linalg.det(parent[:3, :3])), 1e-300))
+        velocity = to_world @ _vec(desc.linearVelocity) * u.meters_per_unit
+        spin = to_world @ np.radians(_vec(desc.angularVelocity))
+        index = self.scene.add_rigid_body(shape, mass_properties=properties, position=origin,
+                                          orientation=matrix_to_quat(R_world @ O), linear_velocity=velocity,
+                                          angular_velocity=spin, restitution=restitution, friction=friction,
+                                          name=self._unique(prim.GetName(), self.scene.bodies))
+        self._link(path, "body", index, offset=(O, o))
+
     def _mass_information(self, made):
         """usd-core's callback: a shape's volume, unit-density inertia and centre of mass, in stage units."""
         info = UsdPhysics.RigidBodyAPI.MassInformation()
@@ -260,14 +277,14 @@ class _Reader:
             more = f" and {len(shown) - 5} more" if len(shown) > 5 else ""
             warnings.warn(f"{self._name()}: {what}: {', '.join(shown[:5])}{more}", UserWarning, stacklevel=4)
 
-    def _link(self, path: str, kind: str, index, offset=None) -> None:
+    def _link(self, path: str, kind: str, index, offset=None, pooled: bool = False) -> None:
         prim = self.stage.GetPrimAtPath(path)
         xformable = UsdGeom.Xformable(prim)
         world = _matrix(xformable.ComputeLocalToWorldTransform(self.time))
         parent = _matrix(xformable.ComputeParentToWorldTransform(self.time))
         local = np.linalg.inv(parent) @ world
         scale = np.linalg.norm(local[:3, :3], axis=0)
-        link = PrimLink(path, kind, index, world, parent, scale)
+        link = PrimLink(path, kind, index, world, parent, scale, pooled=pooled)
         if offset is not None:
             link.offset = offset
         self.source.links.append(link)

@@ -130,10 +130,10 @@ class Overlay:
     """What StageWriter needs to write an overlay of ``source`` (a UsdSource from Scene.from_usd).
 
     over: the input stage (a path, or a Usd.Stage with a file); bodies: the scene's bodies (for each centre of
-    mass in its shape's frame); emitter_paths: the links that are emitter pools; flatten: one standalone stage
+    mass in its shape's frame); flatten: one standalone stage
     """
 
-    def __init__(self, source: UsdSource, over, bodies, emitter_paths, flatten: bool = False):
+    def __init__(self, source: UsdSource, over, bodies, flatten: bool = False):
         self.source, self.flatten = source, flatten
         if isinstance(over, Usd.Stage):
             over = over.GetRootLayer().realPath or over.GetRootLayer().identifier
@@ -151,28 +151,34 @@ class Overlay:
             if link.kind == "body":
                 self.writers.append(_OverBody(link, units, bodies[int(link.index)].mass.com))
             elif link.kind in ("cloth", "particles"):
-                self.writers.append(_OverPool(link, units) if link.path in emitter_paths else _OverPoints(link, units))
+                self.writers.append(_OverPool(link, units) if link.pooled else _OverPoints(link, units))
 
     def time_code(self, fps: float) -> tuple[float, float]:
         """(start, step): frame k lands at time code start + k step."""
         return self.source.start_time_code, self.source.time_codes_per_second / fps
 
     def define(self, stage: Usd.Stage, output: pathlib.Path) -> None:
-        """The overlay's stage metadata (the input's) and its sublayer (the input, relative to the output)."""
-        layer, source = stage.GetRootLayer(), self.stage
+        """The overlay's stage metadata: the input's (its sublayer is added by ``finish``, so the frames are
+        authored without composing the input)."""
+        source = self.stage
         for key in ("upAxis", "metersPerUnit", "kilogramsPerUnit", "timeCodesPerSecond", "framesPerSecond",
                     "startTimeCode", "defaultPrim"):
             if source.HasMetadata(key):
                 stage.SetMetadata(key, source.GetMetadata(key))
+
+    def finish(self, layer: Sdf.Layer, output: pathlib.Path) -> Sdf.Layer:
+        """The layer to export: the overlay sublayering the input (by a path relative to the output), or with
+        ``flatten`` the composed stage as one layer."""
         absolute = os.path.abspath(self.input)
+        copy = Sdf.Layer.CreateAnonymous(output.suffix)   # not the writer's stage's layer: adding the input there would
+        copy.TransferContent(layer)                 # compose it, while it is only to be written out
+        layer = copy
+        if self.flatten:
+            layer.subLayerPaths.append(absolute)
+            return Usd.Stage.Open(layer).Flatten()
         try:
             relative = os.path.relpath(absolute, os.path.dirname(os.path.abspath(output)))
         except ValueError:   # another drive
             relative = absolute
-        layer.subLayerPaths.append(absolute if self.flatten else relative)
-
-    def finish(self, layer: Sdf.Layer, output: pathlib.Path) -> Sdf.Layer:
-        """The layer to export: the overlay itself, or with ``flatten`` the composed stage as one layer."""
-        if not self.flatten:
-            return layer
-        return Usd.Stage.Open(layer).Flatten()
+        layer.subLayerPaths.append(relative)
+        return layer

@@ -66,6 +66,7 @@ if TYPE_CHECKING:
 
 from .prims import POOL_ARRAYS, QUAT_NORM_TOLERANCE, Frame, check_in_range, check_rows, prim_writers, require
 from .runs import FORMAT, RunFolder, export_layer, remove_strays, run_folder, strays, write_atomically
+from .overlay import Overlay
 from .specs import USD_EXTENSIONS, WORLD_PATH, StageLayout
 
 __all__ = ["StageWriter"]
@@ -78,8 +79,8 @@ class StageWriter:
     exception calls ``abort()`` (the final path is then left untouched).
     """
 
-    def __init__(self, path, fps: float, layout: StageLayout, chunk_frames: int = 240, key: str | None = None,
-                 resume: bool = False):
+    def __init__(self, path, fps: float, layout: StageLayout | None, chunk_frames: int = 240, key: str | None = None,
+                 resume: bool = False, overlay: Overlay | None = None):
         require(isinstance(path, (str, os.PathLike)) and str(path).strip() != "",
                 f"usd={path!r} is invalid: expected a file path ending in {', '.join(USD_EXTENSIONS)}")
         self._given = path
@@ -95,7 +96,9 @@ class StageWriter:
                  f"chunk_frames must be an integer >= 1, got {chunk_frames!r}")
         self._fps = float(fps)
         self._chunk_frames = int(chunk_frames)
-        self._writers = prim_writers(layout)
+        self._overlay = overlay
+        self._writers = overlay.writers if overlay is not None else prim_writers(layout)
+        self._time_start, self._time_step = overlay.time_code(self._fps) if overlay is not None else (0.0, 1.0)
         self._usd_writers = [w for w in self._writers if not w.sdf_only]
         self._sdf_writers = [w for w in self._writers if w.sdf_only]
         self._min_particles = max((w.min_particles for w in self._writers), default=0)
@@ -148,6 +151,11 @@ class StageWriter:
 
     def _define(self) -> None:
         stage = self._stage
+        if self._overlay is not None:
+            self._overlay.define(stage, self._path)
+            for writer in self._writers:
+                writer.define(stage)
+            return
         UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
         UsdGeom.SetStageMetersPerUnit(stage, 1.0)
         UsdPhysics.SetStageKilogramsPerUnit(stage, 1.0)
@@ -245,7 +253,7 @@ class StageWriter:
             bq = Vt.QuatfArray.FromNumpy(np.ascontiguousarray(bq / norm[:, None], dtype=np.float32))
         if bx is not None:
             bx = Vt.Vec3dArray.FromNumpy(np.ascontiguousarray(bx, dtype=np.float64))
-        return Frame(float(frame), x, v, bx, bq, alive, ids, radius, color, opacity)
+        return Frame(self._time_start + frame * self._time_step, x, v, bx, bq, alive, ids, radius, color, opacity)
 
     def write_frame(self, frame: int, particle_x: np.ndarray | None = None, particle_v: np.ndarray | None = None,
                     body_x: np.ndarray | None = None, body_q: np.ndarray | None = None,
@@ -345,7 +353,9 @@ class StageWriter:
             chunks = [Sdf.Layer.FindOrOpen(str(chunk)) for chunk in self._run.chunks]
             for chunk in chunks:
                 UsdUtils.StitchLayers(layer, chunk)
-            self._stage.SetEndTimeCode(max(self._frames - 1, 0))
+            self._stage.SetEndTimeCode(self._time_start + max(self._frames - 1, 0) * self._time_step)
+            if self._overlay is not None:
+                layer = self._overlay.finish(layer, self._path)
             write_atomically(self._path, lambda temporary: export_layer(layer, temporary))
         except Exception as error:   # OSError, pxr.Tf.ErrorException: one message, the user's path
             self.suspend()
