@@ -73,6 +73,12 @@ def _rotation(quat) -> np.ndarray:
     return np.array(Gf.Matrix3d(q), dtype=np.float64).T
 
 
+def _rigid(world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rotation, translation) of a local-to-world matrix (column vectors), its scale taken out (polar part)."""
+    U, _, Vh = np.linalg.svd(world[:3, :3])
+    return U @ Vh, world[:3, 3].copy()
+
+
 def _vec(v) -> np.ndarray:
     return np.array(list(v), dtype=np.float64)
 
@@ -160,8 +166,8 @@ class _Reader:
             self._body(path, desc, parts, enabled)
 
     def _body(self, path: str, desc, parts, enabled) -> None:
-        """One dynamic body: collision shapes from ``enabled``, mass from every shape of ``parts`` (usd-core counts
-        a shape whose collisions are disabled, so warp_sim does too)."""
+        """One dynamic body: collision shapes from ``enabled``, mass from usd-core over every shape of ``parts``
+        (it leaves out a shape whose collisions are disabled, so warp_sim does too)."""
         u = self.units
         if not enabled:
             self.skipped.setdefault("rigid bodies without an enabled collision shape", []).append(path)
@@ -183,24 +189,25 @@ class _Reader:
             return
         colliding = [built[shape_path] for shape_path, _, _ in enabled]
         if len(colliding) == 1:
-            shape, O, o = colliding[0]
+            shape, Rs, ps = colliding[0]
         else:   # a compound: its parts' surfaces in the body's frame, one closed mesh
-            shape, O, o = _compound(colliding), np.eye(3), np.zeros(3)
+            shape, Rs, ps = _compound(colliding), np.eye(3), np.zeros(3)
         P = _rotation(axes)
         inertia_body = P @ np.diag(u.inertia(_vec(diagonal))) @ P.T
         com_body = u.length(_vec(com))
-        properties = MassProperties(u.mass(mass), O.T @ (com_body - o), O.T @ inertia_body @ O)
-        R_world = u.rotation(_rotation(desc.rotation))
-        origin = u.point(_vec(desc.position)) + R_world @ o
+        properties = MassProperties(u.mass(mass), Rs.T @ (com_body - ps), Rs.T @ inertia_body @ Rs)
+        rotation, position = _rigid(_matrix(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(self.time)))
+        R_world = u.rotation(rotation)             # from the prim's xform in double (the desc's pose is float)
+        origin = u.point(position) + R_world @ ps
         parent = _matrix(UsdGeom.Xformable(prim).ComputeParentToWorldTransform(self.time))
         to_world = u.C @ parent[:3, :3] / np.cbrt(max(abs(np.linalg.det(parent[:3, :3])), 1e-300))
         velocity = to_world @ _vec(desc.linearVelocity) * u.meters_per_unit
         spin = to_world @ np.radians(_vec(desc.angularVelocity))
         index = self.scene.add_rigid_body(shape, mass_properties=properties, position=origin,
-                                          orientation=matrix_to_quat(R_world @ O), linear_velocity=velocity,
+                                          orientation=matrix_to_quat(R_world @ Rs), linear_velocity=velocity,
                                           angular_velocity=spin, restitution=restitution, friction=friction,
                                           name=self._unique(prim.GetName(), self.scene.bodies))
-        self._link(path, "body", index, offset=(O, o))
+        self._link(path, "body", index, offset=(Rs, ps))
 
     def _mass_information(self, made):
         """usd-core's callback: a shape's volume, unit-density inertia and centre of mass, in stage units."""
@@ -208,14 +215,14 @@ class _Reader:
         if made is None:
             info.volume = -1.0   # not a shape warp_sim can build: usd-core leaves it out
             return info
-        shape, O, o = made
+        shape, Rs, ps = made
         unit = shape.mass_properties(density=1.0)
         length = self.units.meters_per_unit
         info.volume = unit.mass / length ** 3
         info.inertia = Gf.Matrix3f(*(unit.inertia / length ** 5).ravel().tolist())   # density 1 in stage units
         info.centerOfMass = Gf.Vec3f(*(unit.com / length).tolist())
-        info.localPos = Gf.Vec3f(*(o / length).tolist())
-        q = matrix_to_quat(O)
+        info.localPos = Gf.Vec3f(*(ps / length).tolist())
+        q = matrix_to_quat(Rs)
         info.localRot = Gf.Quatf(float(q[3]), float(q[0]), float(q[1]), float(q[2]))
         return info
 
@@ -243,13 +250,13 @@ class _Reader:
         made = self._shape(kind, desc, path)
         if made is None:
             return
-        shape, O, o = made
+        shape, Rs, ps = made
         if body is not None:
-            O, o = u.rotation(R_body) @ O, u.point(p_body) + u.rotation(R_body) @ o
+            Rs, ps = u.rotation(R_body) @ Rs, u.point(p_body) + u.rotation(R_body) @ ps
         else:
-            O = u.rotation(O)
-            o = u.point(o / u.meters_per_unit)
-        index = self.scene.add_collider(shape, position=o, orientation=matrix_to_quat(O), restitution=restitution,
+            Rs = u.rotation(Rs)
+            ps = u.point(ps / u.meters_per_unit)
+        index = self.scene.add_collider(shape, position=ps, orientation=matrix_to_quat(Rs), restitution=restitution,
                                         friction=friction,
                                         name=self._unique(self.stage.GetPrimAtPath(path).GetName(),
                                                           self.scene.colliders))

@@ -58,12 +58,12 @@ class _OverBody(_PrimWriter):
         self.orient = self.path.AppendProperty("xformOp:orient")
 
     def write(self, frame: Frame) -> None:
-        u, (O, o) = self.units, self.link.offset
+        u, (Rs, ps) = self.units, self.link.offset
         q = _quat(frame.body_q[self.index])
         R = quat_to_matrix(q)
         x = np.array(frame.body_x[self.index], dtype=np.float64)
-        R_prim = R @ O.T
-        t_prim = (x - R @ self.com) - R_prim @ o
+        R_prim = R @ Rs.T
+        t_prim = (x - R @ self.com) - R_prim @ ps
         world = np.eye(4)
         world[:3, :3] = u.stage_rotation(R_prim)
         world[:3, 3] = u.stage_point(t_prim)
@@ -170,15 +170,16 @@ class Overlay:
         """The layer to export: the overlay sublayering the input (by a path relative to the output), or with
         ``flatten`` the composed stage as one layer."""
         absolute = os.path.abspath(self.input)
-        copy = Sdf.Layer.CreateAnonymous(output.suffix)   # not the writer's stage's layer: adding the input there would
-        copy.TransferContent(layer)                 # compose it, while it is only to be written out
-        layer = copy
+        copy = Sdf.Layer.CreateAnonymous(output.suffix)   # not the writer's stage's layer: adding the input there
+        copy.TransferContent(layer)                       # would compose it, while it is only to be written out
         if self.flatten:
-            layer.subLayerPaths.append(absolute)
-            return Usd.Stage.Open(layer).Flatten()
+            copy.subLayerPaths.append(absolute)
+            flat = Sdf.Layer.CreateAnonymous(output.suffix)   # in the output's format
+            flat.TransferContent(Usd.Stage.Open(copy).Flatten())
+            return flat
         try:
             relative = os.path.relpath(absolute, os.path.dirname(os.path.abspath(output)))
         except ValueError:   # another drive
             relative = absolute
-        layer.subLayerPaths.append(relative)
-        return layer
+        copy.subLayerPaths.append(relative)
+        return copy

@@ -64,9 +64,9 @@ from pxr import Sdf, Usd, UsdGeom, UsdPhysics, UsdUtils, Vt
 if TYPE_CHECKING:
     from typing_extensions import Self  # typing.Self needs Python 3.11
 
+from .overlay import Overlay
 from .prims import POOL_ARRAYS, QUAT_NORM_TOLERANCE, Frame, check_in_range, check_rows, prim_writers, require
 from .runs import FORMAT, RunFolder, export_layer, remove_strays, run_folder, strays, write_atomically
-from .overlay import Overlay
 from .specs import USD_EXTENSIONS, WORLD_PATH, StageLayout
 
 __all__ = ["StageWriter"]
