@@ -367,3 +367,95 @@ def test_joints_and_open_dynamic_meshes_are_named_and_the_rest_simulated(tmp_pat
     assert Sdf.Layer.FindOrOpen(str(out)).ListTimeSamplesForPath("/World/box.xformOp:translate")[-1] == 11.0
     assert main(["run", str(tmp_path / "missing.usda"), "--out", str(tmp_path / "x.usdc")]) == 2
     assert "missing.usda" in capsys.readouterr().err and not (tmp_path / "x.usdc").exists()
+
+
+def test_an_animated_kinematic_paddle_sweeps_a_resting_box(tmp_path):
+    """A kinematic paddle animated from x = -1 to 1 m over 2 s (two time samples at 24 time codes per second)
+    pushes a box resting on the ground ahead of it: the box moves with the paddle, touching it, then slides
+    v^2 / (2 mu g) when the paddle stops; the paddle follows its animation exactly (it is never pushed back) and
+    the overlay leaves its animation alone."""
+    stage = new_stage(tmp_path / "sweep.usda")
+    ground = UsdGeom.Plane.Define(stage, "/World/ground")
+    ground.CreateAxisAttr("Y")
+    UsdPhysics.CollisionAPI.Apply(ground.GetPrim())
+    rough = material(stage, "/World/Looks/rough", restitution=0.0, dynamic=0.5)
+    bind(ground.GetPrim(), rough)
+    box = cube(stage, "/World/box", 0.2, Gf.Vec3d(0, 0.1, 0))
+    bind(box, rough)
+    paddle = UsdGeom.Cube.Define(stage, "/World/paddle")
+    paddle.CreateSizeAttr(1.0)
+    move = paddle.AddTranslateOp()
+    move.Set(Gf.Vec3d(-1.0, 0.2, 0.0), 0.0)
+    move.Set(Gf.Vec3d(1.0, 0.2, 0.0), 48.0)
+    paddle.AddScaleOp().Set(Gf.Vec3f(0.1, 0.4, 0.6))
+    UsdPhysics.RigidBodyAPI.Apply(paddle.GetPrim()).CreateKinematicEnabledAttr(True)
+    UsdPhysics.CollisionAPI.Apply(paddle.GetPrim())
+    bind(paddle.GetPrim(), rough)
+    stage.Save()
+    scene = ws.Scene.from_usd(tmp_path / "sweep.usda", precision="float64")
+    assert scene.bodies[1].track is not None and list(scene.bodies[1].track.times) == [0.0, 2.0]
+    sim = ws.Simulator(scene)
+    for k in range(1, 181):
+        sim.step(1.0 / 60.0)
+        x = sim.state.body_x.numpy()
+        paddle_x = -1.0 + min(k / 60.0, 2.0)
+        assert x[1, 0] == pytest.approx(paddle_x, abs=1e-9)           # exactly its animation, never pushed back
+        if 75 <= k <= 120:                                           # pushed along: touching the paddle's face
+            assert x[0, 0] == pytest.approx(paddle_x + 0.05 + 0.1, abs=2e-3)
+    slide = 1.0 ** 2 / (2 * 0.5 * 9.81)
+    assert x[0, 0] == pytest.approx(1.15 + slide, rel=0.05)
+    out = ws.Simulator(ws.Scene.from_usd(tmp_path / "sweep.usda")).run(
+        0.5, fps=24, usd=tmp_path / "anim.usda", over=tmp_path / "sweep.usda", progress=False)
+    layer = Sdf.Layer.FindOrOpen(str(out))
+    assert layer.GetPrimAtPath("/World/box") and not layer.GetPrimAtPath("/World/paddle")
+
+
+def test_warpsim_cloth_particles_and_an_emitter_are_read_and_animated(tmp_path):
+    """warp_sim's own attributes: a cloth Mesh pinned at two corners, a Points set and an emitter Xform, in a
+    centimetre Z-up stage; each simulates (the pins hold, the points fall freely, the emitter's rate is kept) and
+    the overlay samples points and extent on the cloth and the points, and a Points child of the emitter."""
+    stage = new_stage(tmp_path / "soft.usda", up="Z", meters=0.01)
+    mesh = UsdGeom.Mesh.Define(stage, "/World/flag")
+    n = 5
+    grid = [(20.0 * i, 0.0, 100.0 + 20.0 * j) for j in range(n) for i in range(n)]
+    mesh.CreatePointsAttr(grid)
+    mesh.CreateFaceVertexCountsAttr([4] * (n - 1) ** 2)
+    mesh.CreateFaceVertexIndicesAttr([c for j in range(n - 1) for i in range(n - 1)
+                                      for c in (j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i)])
+    prim = mesh.GetPrim()
+    prim.CreateAttribute("warpSim:cloth", Sdf.ValueTypeNames.Bool, custom=True).Set(True)
+    prim.CreateAttribute("warpSim:pinned", Sdf.ValueTypeNames.IntArray, custom=True).Set([20, 24])
+    prim.CreateAttribute("warpSim:stiffness", Sdf.ValueTypeNames.Float3, custom=True).Set(Gf.Vec3f(50, 25, 2))
+    prim.CreateAttribute("warpSim:damping", Sdf.ValueTypeNames.Float3, custom=True).Set(Gf.Vec3f(0.01, 0.01, 0.001))
+    points = UsdGeom.Points.Define(stage, "/World/drops")
+    points.CreatePointsAttr([(0.0, 50.0, 200.0), (10.0, 50.0, 200.0)])
+    points.CreateWidthsAttr([2.0, 2.0])
+    points.GetPrim().CreateAttribute("warpSim:particles", Sdf.ValueTypeNames.Bool, custom=True).Set(True)
+    fountain = UsdGeom.Xform.Define(stage, "/World/fountain")
+    fountain.AddTranslateOp().Set(Gf.Vec3d(0.0, -50.0, 10.0))
+    fountain.AddRotateXOp().Set(90.0)            # its +Y (the emission axis) onto the stage's +Z
+    f = fountain.GetPrim()
+    f.CreateAttribute("warpSim:emitter", Sdf.ValueTypeNames.Bool, custom=True).Set(True)
+    f.CreateAttribute("warpSim:rate", Sdf.ValueTypeNames.Float, custom=True).Set(50.0)
+    f.CreateAttribute("warpSim:lifetime", Sdf.ValueTypeNames.Float2, custom=True).Set(Gf.Vec2f(1.0, 1.0))
+    f.CreateAttribute("warpSim:speed", Sdf.ValueTypeNames.Float2, custom=True).Set(Gf.Vec2f(2.0, 2.0))
+    stage.Save()
+    scene = ws.Scene.from_usd(tmp_path / "soft.usda")
+    kinds = {path: kind for path, (kind, _) in scene.usd_paths.items()}
+    assert kinds == {"/World/flag": "cloth", "/World/drops": "particles", "/World/fountain": "particles"}
+    np.testing.assert_allclose(scene.emitters[0].direction, [0.0, 1.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(scene.emitters[0].position, [0.0, 0.1, 0.5], atol=1e-9)
+    out = ws.Simulator(scene, integrator="symplectic_euler").run(
+        1.0, fps=24, substeps=16, usd=tmp_path / "anim.usdc", over=tmp_path / "soft.usda", progress=False)
+    composed = Usd.Stage.Open(str(out))
+    flag = UsdGeom.Mesh(composed.GetPrimAtPath("/World/flag")).GetPointsAttr()
+    end = np.array(flag.Get(23.0))
+    np.testing.assert_allclose(end[[20, 24]], np.array(grid)[[20, 24]], atol=1e-3)       # the pins, in cm
+    sag = np.array(grid)[:, 2] - end[:, 2]
+    assert sag.min() >= -1e-3 and sag[22] > 1.0 and sag[0] > 0.5      # hanging from its pins, it sags [cm]
+    drops = np.array(UsdGeom.Points(composed.GetPrimAtPath("/World/drops")).GetPointsAttr().Get(23.0))
+    steps, h = 23 * 16, 1.0 / (24 * 16)
+    fall = 981.0 * h ** 2 * steps * (steps + 1) / 2.0        # symplectic Euler's own free fall, exactly [cm]
+    np.testing.assert_allclose(drops[:, 2], 200.0 - fall, atol=1e-2)
+    live = UsdGeom.Points(composed.GetPrimAtPath("/World/fountain/warpSimParticles")).GetPointsAttr().Get(23.0)
+    assert abs(len(live) - 50.0 * min(23.0 / 24.0, 1.0)) <= 1.0                 # rate x min(t, lifetime)

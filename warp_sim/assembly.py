@@ -15,7 +15,15 @@ from .core.model import Model
 from .core.protocols import Forces, Pass
 from .detection import ContactGeometry, Detection
 from .forces import AeroForces, BodyPenalty, FieldForces, PlanePenalty, Springs
-from .passes import BodyContacts, ComponentProjection, EmitterPools, ParticleShapeContacts, PlaneImpacts, StrainLimiter
+from .passes import (
+    BodyContacts,
+    ComponentProjection,
+    EmitterPools,
+    KinematicBodies,
+    ParticleShapeContacts,
+    PlaneImpacts,
+    StrainLimiter,
+)
 from .scene import Scene
 from .solvers import Integrator, make_integrator
 
@@ -83,7 +91,10 @@ def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: 
     projection = ComponentProjection(dynamics) if model.body_count else None
     emitters = EmitterPools(model, scene) if scene.emitters else None
     # in this order: a particle squeezed between a body and the ground ends on the ground, not below it
-    passes = _present([strain_limiter, body_contacts, particle_shapes, impacts, projection, emitters])
+    kinematic = KinematicBodies(model, scene) if any(body.track is not None for body in scene.bodies) else None
+    # kinematic bodies are set before the contacts (which see them move) and after (which pushed them a little)
+    passes = _present([kinematic, strain_limiter, body_contacts, particle_shapes, impacts, projection, emitters,
+                       kinematic])
     if emitters is not None and emitters.touched is not None:   # kill-on-contact emitters read the contact flags
         for contact_pass in _present([impacts, particle_shapes]):
             contact_pass.touched = emitters.touched

@@ -26,6 +26,11 @@ def _array(values, dtype, device):
     return wp.array(np.ascontiguousarray(values), dtype=dtype, device=device)
 
 
+#: a kinematic body's mass against the heaviest dynamic body's: the response moves it by this share at most
+#: (about 1e-6), and its track resets it every step
+KINEMATIC_MASS_RATIO = 1.0e6
+
+
 class Model:
     """Constants of a scene on a device.
 
@@ -101,8 +106,14 @@ class Model:
                                    damping=self.spring_damping, rest_length=self.spring_rest_length)
 
     def _build_bodies(self, scene: Scene) -> None:
-        self.body_inv_mass = _array(1.0 / scene.body_array("mass"), self.scalar, self.device)
-        self.body_inv_inertia = _array(np.linalg.inv(scene.body_array("inertia")), self.mat33, self.device)
+        mass, inertia = scene.body_array("mass"), scene.body_array("inertia")
+        kinematic = np.array([body.track is not None for body in scene.bodies])
+        if kinematic.any():   # far heavier than anything they push, so they are not pushed back (they are reset)
+            heaviest = mass[~kinematic].max() if (~kinematic).any() else 1.0
+            scale = np.where(kinematic, KINEMATIC_MASS_RATIO * heaviest / mass, 1.0)
+            mass, inertia = mass * scale, inertia * scale[:, None, None]
+        self.body_inv_mass = _array(1.0 / mass, self.scalar, self.device)
+        self.body_inv_inertia = _array(np.linalg.inv(inertia), self.mat33, self.device)
         for key in ("drag", "angular_drag", "restitution", "friction"):
             setattr(self, f"body_{key}", _array(scene.body_array(key), self.scalar, self.device))
         self.body_mass = blocks.fill(self.blocks.BodyMass, inv_mass=self.body_inv_mass,

@@ -139,4 +139,28 @@ def apply_impulse(body: int, impulse: Any, point: Any, bodies: Any):
     bodies.L[body] = bodies.L[body] + wp.cross(point - bodies.x[body], impulse)
 
 
+@wp.kernel
+def set_kinematic(index: wp.array(dtype=wp.int32), x: wp.array(dtype=Any), q: wp.array(dtype=Any),
+                  v: wp.array(dtype=Any), omega: wp.array(dtype=Any), mass: Any, bodies: Any):
+    """Kinematic bodies follow their tracks: x, q set, and P = M v, L = R I_body R^T omega from the track's mean
+    velocities over the step (what the contact response sees); one thread per kinematic body.
+
+    Args:
+        index: the body index of each kinematic body [1]
+        x: its centre of mass at the step's end (vec3) [m]
+        q: its orientation then (quat) [1]
+        v: its mean linear velocity over the step (vec3) [m/s]
+        omega: its mean angular velocity over the step, world frame (vec3) [rad/s]
+        mass: inverse masses inv_mass and body-frame inverse inertia tensors inv_inertia (BodyMass) [1/kg]
+        bodies: x, q, P and L written (Bodies) [kg m/s]
+    """
+    k = wp.tid()
+    i = index[k]
+    unit = wp.normalize(q[k])
+    bodies.x[i] = x[k]
+    bodies.q[i] = unit
+    bodies.P[i] = v[k] / mass.inv_mass[i]
+    bodies.L[i] = wp.quat_rotate(unit, wp.inverse(mass.inv_inertia[i]) * wp.quat_rotate_inv(unit, omega[k]))
+
+
 register(globals())

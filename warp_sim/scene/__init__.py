@@ -5,7 +5,8 @@ force-field descriptions. Nothing here touches a device.
 """
 from .emitters import Emitter, Ramp
 from .fields import Attractor, Field, Turbulence, Vortex
-from .scene import PRECISIONS, Collider, ParticleGroup, Plane, RigidBody, Scene, SurfaceMesh
+from .parts import Collider, ParticleGroup, Plane, RigidBody, SurfaceMesh
+from .scene import PRECISIONS, Scene
 from .shapes import Box, Capsule, Cylinder, MassProperties, MeshShape, PointMasses, Shape, Sphere
 
 __all__ = ["Scene", "ParticleGroup", "Plane", "SurfaceMesh", "RigidBody", "Collider", "PRECISIONS", "Emitter",

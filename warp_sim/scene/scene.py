@@ -1,8 +1,6 @@
 """Scene: the host-side description a user builds (numpy, validated on entry). SI units, Y up."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..util import checks
@@ -10,129 +8,18 @@ from ..util.rotations import quat_to_matrix
 from . import cloth, usd_reader, usd_writer
 from .emitters import make_emitter
 from .fields import Field
+from .parts import Collider, ParticleGroup, Plane, RigidBody, SurfaceMesh
 from .shapes import MassProperties, Shape
+from .tracks import Track
 
 PRECISIONS = ("float32", "float64")
-
-
-@dataclass(frozen=True)
-class ParticleGroup:
-    """The particles one add_particles call (or an emitter, or a cloth) made.
-
-    name: its USD prim name
-    start, count: global particle indices start .. start + count - 1
-    color: RGB in [0, 1]
-    pooled: True for the slots of an emitter's pool, of which only the live ones exist at any time
-    """
-    name: str
-    start: int
-    count: int
-    color: tuple
-    pooled: bool = False
-
-
-@dataclass(frozen=True)
-class Plane:
-    """The static plane normal . x = offset; bodies stay on the side the unit normal points to.
-
-    name: its USD prim name
-    normal: unit normal, (3,)
-    offset: [m]
-    restitution, friction: its contact materials (a contact takes the mean with the other side's) [1]
-    """
-    name: str
-    normal: np.ndarray
-    offset: float
-    restitution: float
-    friction: float
-
-
-@dataclass(frozen=True)
-class SurfaceMesh:
-    """A cloth or soft body: particles start .. start + count - 1 drawn as one UsdGeom.Mesh.
-
-    name: its USD prim name
-    start, count: its first global particle index and its particle count
-    face_counts: (F,) vertices per face
-    face_indices: (sum of face_counts,) vertex indices local to the mesh (0 .. count - 1)
-    triangles: (T, 3) the faces split into triangles, global particle indices (for aerodynamics)
-    springs: global spring indices of its "structural", "shear" and "bend" families (dict of arrays)
-    color: RGB in [0, 1]
-    drag, lift: aerodynamic coefficients C_D, C_L (dimensionless; 0: none)
-    air_density: rho [kg/m^3]
-    max_stretch: the strain limit of its structural and shear springs (0.1 = 10 %), or None
-    """
-    name: str
-    start: int
-    count: int
-    face_counts: np.ndarray
-    face_indices: np.ndarray
-    triangles: np.ndarray
-    springs: dict
-    color: tuple
-    drag: float = 0.0
-    lift: float = 0.0
-    air_density: float = 1.2
-    max_stretch: float | None = None
-
-    def parameter(self, key: str, **bounds) -> float:
-        """The value of field ``key`` checked by checks.scalar(**bounds); the error names the mesh too."""
-        try:
-            return checks.scalar(key, getattr(self, key), **bounds)
-        except ValueError as error:
-            raise ValueError(f"{error} (mesh {self.name!r})") from None
-
-
-@dataclass(frozen=True)
-class RigidBody:
-    """One rigid body as added: its shape, mass properties and initial state (world frame).
-
-    name: its USD prim name
-    shape: the Shape; mass: its MassProperties (mass [kg], centre of mass com [m], inertia [kg m^2])
-    position: the centre of mass [m] (the shape's origin sits at position - R com)
-    orientation: unit quaternion (x, y, z, w)
-    momentum: P [kg m/s]
-    angular_momentum: L [kg m^2/s]
-    drag: [N s/m]
-    angular_drag: [N m s/rad]
-    restitution, friction: contact materials [1]
-    color: RGB in [0, 1]
-    """
-    name: str
-    shape: Shape
-    mass: MassProperties
-    position: np.ndarray
-    orientation: np.ndarray
-    momentum: np.ndarray
-    angular_momentum: np.ndarray
-    drag: float
-    angular_drag: float
-    restitution: float
-    friction: float
-    color: tuple
-
-
-@dataclass(frozen=True)
-class Collider:
-    """A static collider: a shape with infinite mass that never moves (world frame).
-
-    name: its USD prim name
-    shape: the Shape
-    position: where the shape's origin lies [m], (3,)
-    orientation: unit quaternion (x, y, z, w), (4,)
-    restitution, friction: contact materials [1]
-    color: RGB in [0, 1]
-    """
-    name: str
-    shape: Shape
-    position: np.ndarray
-    orientation: np.ndarray
-    restitution: float
-    friction: float
-    color: tuple
-
-
 _SHAPE_NAMES = "Sphere, Box, Capsule, Cylinder, MeshShape or PointMasses"
+
+
+def _keys(kinematic) -> tuple:
+    if not isinstance(kinematic, (tuple, list)) or len(kinematic) != 3:
+        raise checks.fail("kinematic", kinematic, "expected (times [s], positions [m], orientations (x, y, z, w))")
+    return tuple(kinematic)
 
 
 def _shape(shape) -> Shape:
@@ -484,7 +371,8 @@ class Scene:
                        linear_velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0),
                        restitution: float = 0.5, friction: float = 0.4, drag: float | None = None,
                        angular_drag: float | None = None, name: str | None = None,
-                       color=(0.6, 0.6, 0.65), mass_properties: MassProperties | None = None) -> int:
+                       color=(0.6, 0.6, 0.65), mass_properties: MassProperties | None = None,
+                       kinematic=None) -> int:
         """Add a rigid body; returns its body index.
 
         shape: a ws.Sphere, Box, Capsule, Cylinder, MeshShape (solid) or PointMasses; density
@@ -494,12 +382,18 @@ class Scene:
         normalised with a warning if off unit length; linear_velocity of the centre of
         mass [m/s] and angular_velocity [rad/s], world frame; restitution in [0, 1],
         friction >= 0; drag [N s/m] and angular_drag [N m s/rad] default to the scene's; mass_properties (instead
-        of density or mass): the body's own MassProperties in the shape's frame (a USD MassAPI's).
+        of density or mass): the body's own MassProperties in the shape's frame (a USD MassAPI's); kinematic:
+        (times [s], positions [m], orientations) keys of the shape's origin that the body follows, pushing others
+        without being pushed (its position and orientation are then the pose at time 0).
         """
         if mass_properties is not None and (not isinstance(mass_properties, MassProperties) or density or mass):
             raise checks.fail("mass_properties", mass_properties, "expected a MassProperties, without density or mass")
         properties = mass_properties or _shape(shape).mass_properties(density=density, mass=mass)
         _shape(shape)
+        track = None if kinematic is None else Track.of(*_keys(kinematic), properties.com)
+        if track is not None:
+            position, orientation = track.pose(0.0)
+            position = position - quat_to_matrix(orientation) @ properties.com
         q = checks.unit_quaternion("orientation", orientation)
         R = quat_to_matrix(q)
         inertia_world = R @ properties.inertia @ R.T
@@ -518,7 +412,7 @@ class Scene:
                 "angular_drag", angular_drag, low=0.0),
             restitution=checks.scalar("restitution", restitution, low=0.0, high=1.0),
             friction=checks.scalar("friction", friction, low=0.0),
-            color=tuple(checks.unit_interval("color", color, (3,))),
+            color=tuple(checks.unit_interval("color", color, (3,))), track=track,
         )
         self.bodies.append(body)
         self._body_names.add(label)

@@ -41,7 +41,8 @@ class PrimLink:
     path: the prim's path; kind: "body", "collider", "cloth" or "particles"; index: the body or collider index,
     or the particle ids; offset: the shape's frame in the prim's frame (rotation (3, 3), position (3,) [m]) for
     bodies; world: the prim's local-to-world matrix at the read time (4, 4), stage units, column vectors;
-    parent: its parent's (4, 4); scale: its authored local scale (3,); pooled: an emitter's pool
+    parent: its parent's (4, 4); scale: its authored local scale (3,); pooled: an emitter's pool; kinematic: a
+    kinematic body (its own animation drives it, so the overlay leaves it alone)
     """
     path: str
     kind: str
@@ -51,6 +52,7 @@ class PrimLink:
     scale: np.ndarray
     offset: tuple = (np.eye(3), np.zeros(3))
     pooled: bool = False
+    kinematic: bool = False
 
 
 @dataclass
@@ -156,10 +158,7 @@ class _Reader:
         for path, desc in self.descs.get("RigidBody", {}).items():
             parts = [(str(p), *shapes[str(p)]) for p in desc.collisions if str(p) in shapes]
             enabled = [(p, kind, d) for p, kind, d in parts if d.collisionEnabled]
-            if not desc.rigidBodyEnabled or desc.kinematicBody:
-                if desc.kinematicBody and desc.rigidBodyEnabled:
-                    self.skipped.setdefault("kinematic bodies (static at their pose at the read time)",
-                                            []).append(path)
+            if not desc.rigidBodyEnabled:
                 for shape_path, kind, shape_desc in enabled:
                     self._collider(shape_path, kind, shape_desc, body=desc)
                 continue
@@ -203,11 +202,31 @@ class _Reader:
         to_world = u.C @ parent[:3, :3] / np.cbrt(max(abs(np.linalg.det(parent[:3, :3])), 1e-300))
         velocity = to_world @ _vec(desc.linearVelocity) * u.meters_per_unit
         spin = to_world @ np.radians(_vec(desc.angularVelocity))
+        track = self._track(prim, Rs, ps) if desc.kinematicBody else None
         index = self.scene.add_rigid_body(shape, mass_properties=properties, position=origin,
                                           orientation=matrix_to_quat(R_world @ Rs), linear_velocity=velocity,
                                           angular_velocity=spin, restitution=restitution, friction=friction,
-                                          name=self._unique(prim.GetName(), self.scene.bodies))
-        self._link(path, "body", index, offset=(Rs, ps))
+                                          name=self._unique(prim.GetName(), self.scene.bodies), kinematic=track)
+        self._link(path, "body", index, offset=(Rs, ps), kinematic=desc.kinematicBody)
+
+    def _track(self, prim, Rs, ps) -> tuple:
+        """A kinematic body's keys: its prim's world pose at every time sample of its and its ancestors' xforms
+        (seconds from the stage's start), as the shape's origin and orientation in warp_sim's frame."""
+        times = set()
+        for ancestor in prim.GetPath().GetAncestorsRange():
+            xformable = UsdGeom.Xformable(self.stage.GetPrimAtPath(ancestor))
+            if xformable:
+                times.update(xformable.GetTimeSamples())
+        codes = sorted(times) or [self.time.GetValue() if not self.time.IsDefault() else 0.0]
+        keys, positions, orientations = [], [], []
+        xformable = UsdGeom.Xformable(prim)
+        for code in codes:
+            rotation, position = _rigid(_matrix(xformable.ComputeLocalToWorldTransform(Usd.TimeCode(code))))
+            R = self.units.rotation(rotation)
+            keys.append((code - self.source.start_time_code) / self.source.time_codes_per_second)
+            positions.append(self.units.point(position) + R @ ps)
+            orientations.append(matrix_to_quat(R @ Rs))
+        return keys, positions, orientations
 
     def _mass_information(self, made):
         """usd-core's callback: a shape's volume, unit-density inertia and centre of mass, in stage units."""
@@ -284,14 +303,14 @@ class _Reader:
             more = f" and {len(shown) - 5} more" if len(shown) > 5 else ""
             warnings.warn(f"{self._name()}: {what}: {', '.join(shown[:5])}{more}", UserWarning, stacklevel=4)
 
-    def _link(self, path: str, kind: str, index, offset=None, pooled: bool = False) -> None:
+    def _link(self, path: str, kind: str, index, offset=None, pooled: bool = False, kinematic: bool = False) -> None:
         prim = self.stage.GetPrimAtPath(path)
         xformable = UsdGeom.Xformable(prim)
         world = _matrix(xformable.ComputeLocalToWorldTransform(self.time))
         parent = _matrix(xformable.ComputeParentToWorldTransform(self.time))
         local = np.linalg.inv(parent) @ world
         scale = np.linalg.norm(local[:3, :3], axis=0)
-        link = PrimLink(path, kind, index, world, parent, scale, pooled=pooled)
+        link = PrimLink(path, kind, index, world, parent, scale, pooled=pooled, kinematic=kinematic)
         if offset is not None:
             link.offset = offset
         self.source.links.append(link)

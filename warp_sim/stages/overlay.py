@@ -148,7 +148,7 @@ class Overlay:
         units = source.units
         self.writers = []
         for link in source.links:
-            if link.kind == "body":
+            if link.kind == "body" and not link.kinematic:
                 self.writers.append(_OverBody(link, units, bodies[int(link.index)].mass.com))
             elif link.kind in ("cloth", "particles"):
                 self.writers.append(_OverPool(link, units) if link.pooled else _OverPoints(link, units))
