@@ -2,6 +2,8 @@
 the schema's mass rules against usd-core's own ComputeMassProperties, initial velocities, compound bodies, the
 round trip through Scene.to_usd, the overlay written back over the artist's prims, and bad stages."""
 import math
+import pathlib
+import re
 import warnings
 
 import numpy as np
@@ -459,3 +461,78 @@ def test_warpsim_cloth_particles_and_an_emitter_are_read_and_animated(tmp_path):
     np.testing.assert_allclose(drops[:, 2], 200.0 - fall, atol=1e-2)
     live = UsdGeom.Points(composed.GetPrimAtPath("/World/fountain/warpSimParticles")).GetPointsAttr().Get(23.0)
     assert abs(len(live) - 50.0 * min(23.0 / 24.0, 1.0)) <= 1.0                 # rate x min(t, lifetime)
+
+
+def test_newton_loads_a_stage_written_by_to_usd(tmp_path):
+    """A second, independent client of the same file (optional: skipped without newton): Newton's
+    ModelBuilder.add_usd finds the same bodies, masses and inertias (about the centre of mass, body frame)."""
+    newton = pytest.importorskip("newton")
+    pytest.importorskip("newton_usd_schemas")
+    scene = python_scene()
+    path = scene.to_usd(tmp_path / "scene.usda")
+    builder = newton.ModelBuilder()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = builder.add_usd(str(path))
+    model = builder.finalize(device="cpu")
+    assert model.body_count == scene.body_count
+    bodies = {path: index for path, index in result["path_body_map"].items()}
+    for k, body in enumerate(scene.bodies):
+        index = bodies[f"/World/Bodies/{body.name}"]
+        assert model.body_mass.numpy()[index] == pytest.approx(body.mass.mass, rel=1e-5)
+        np.testing.assert_allclose(model.body_inertia.numpy()[index], body.mass.inertia, rtol=1e-4,
+                                   atol=1e-6 * np.abs(body.mass.inertia).max())   # float32 principal axes
+
+
+def test_blender_imports_the_overlay_and_plays_the_bodies(tmp_path):
+    """Blender's own USD importer (optional: skipped where bpy is not installed) reads the overlay composed over
+    its input and moves the box between the first and the last frame."""
+    bpy = pytest.importorskip("bpy")
+    source = drop_stage(tmp_path / "drop.usda", "Y", 1.0)
+    out = ws.Simulator(ws.Scene.from_usd(source)).run(1.0, fps=24, usd=tmp_path / "anim.usda", over=source,
+                                                      progress=False)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.wm.usd_import(filepath=str(out))
+    box = next(obj for obj in bpy.data.objects if obj.name.startswith("box"))
+    scene = bpy.context.scene
+    scene.frame_set(int(scene.frame_start))
+    top = box.matrix_world.translation.copy()
+    scene.frame_set(int(scene.frame_end))
+    assert (top - box.matrix_world.translation).length > 0.1
+
+
+def test_the_shipped_example_animates(tmp_path):
+    """README's one command on examples/tabletop_cm.usda (Z up, centimetres, 24 time codes per second from 1):
+    the crate lands on the table top (z = 72 cm, half size 6 cm) and the kinematic paddle pushes it along; the
+    ball ends at rest on the floor (its radius, 5 cm, above it); the towel hangs from its four pins."""
+    source = pathlib.Path(__file__).parent.parent / "examples" / "tabletop_cm.usda"
+    out = tmp_path / "tabletop_anim.usdc"
+    assert main(["run", str(source), "--out", str(out), "--seconds", "4", "--no-progress"]) == 0
+    stage = Usd.Stage.Open(str(out))
+    assert stage.GetStartTimeCode() == 1.0 and stage.GetEndTimeCode() == 96.0
+
+    def at(path, code):
+        return np.array(UsdGeom.Xformable(stage.GetPrimAtPath(path)).ComputeLocalToWorldTransform(code)
+                        .ExtractTranslation())
+    assert at("/World/crate", 25.0)[2] == pytest.approx(78.0, abs=0.2)
+    assert at("/World/crate", 73.0)[0] > at("/World/paddle", 73.0)[0] + 1.5 + 6.0 - 0.5   # ahead of the paddle
+    assert at("/World/paddle", 73.0)[0] == pytest.approx(40.0, abs=1e-3)
+    assert at("/World/ball", 96.0)[2] == pytest.approx(5.0, abs=0.1)
+    towel = np.array(UsdGeom.Mesh(stage.GetPrimAtPath("/World/towel")).GetPointsAttr().Get(96.0))
+    np.testing.assert_allclose(towel[12:, 2], 120.0, atol=1e-3)
+
+
+USD_DOC = pathlib.Path(__file__).parent.parent / "docs" / "usd.md"
+
+
+@pytest.mark.parametrize("block", re.findall(r"```usda\n(.*?)```", USD_DOC.read_text(), flags=re.S))
+def test_every_usda_example_of_the_docs_reads(tmp_path, block):
+    """Each ``warpSim:`` example of docs/usd.md, in a centimetre Z-up stage, reads as the kind it documents."""
+    text = ("#usda 1.0\n(\n    metersPerUnit = 0.01\n    upAxis = \"Z\"\n)\n\ndef Xform \"World\"\n{\n"
+            "    def PhysicsScene \"physicsScene\"\n    {\n    }\n\n"
+            + "\n".join("    " + line for line in block.splitlines()) + "\n}\n")
+    (tmp_path / "example.usda").write_text(text)
+    scene = ws.Scene.from_usd(tmp_path / "example.usda")
+    ((path, (kind, ids)),) = scene.usd_paths.items()
+    expected = {"flag": "cloth", "drops": "particles", "fountain": "particles"}[path.rsplit("/", 1)[-1]]
+    assert kind == expected and len(ids) > 0
