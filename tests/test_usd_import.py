@@ -12,6 +12,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade
 
 import warp_sim as ws
 from warp_sim.cli import main
+from warp_sim.stages import validate_stage
 from warp_sim.util.rotations import quat_to_matrix
 
 
@@ -520,6 +521,8 @@ def test_the_shipped_example_animates(tmp_path):
     assert at("/World/ball", 96.0)[2] == pytest.approx(5.0, abs=0.1)
     towel = np.array(UsdGeom.Mesh(stage.GetPrimAtPath("/World/towel")).GetPointsAttr().Get(96.0))
     np.testing.assert_allclose(towel[12:, 2], 120.0, atol=1e-3)
+    assert validate_stage(out) == []                    # the overlay composed over the input passes UsdValidation
+    assert stage.GetPrimAtPath("/World/crate/label")    # the artist's visual child rides along
 
 
 USD_DOC = pathlib.Path(__file__).parent.parent / "docs" / "usd.md"
@@ -536,3 +539,21 @@ def test_every_usda_example_of_the_docs_reads(tmp_path, block):
     ((path, (kind, ids)),) = scene.usd_paths.items()
     expected = {"flag": "cloth", "drops": "particles", "fountain": "particles"}[path.rsplit("/", 1)[-1]]
     assert kind == expected and len(ids) > 0
+
+
+def test_kilograms_per_unit_and_a_two_friction_material_said_once(tmp_path):
+    """A stage in grams (kilogramsPerUnit = 0.001): a mass of 500 is 0.5 kg. Two bodies share a material whose
+    static friction differs from its dynamic one: the dynamic one is used, and one warning says so."""
+    stage = new_stage(tmp_path / "grams.usda")
+    UsdPhysics.SetStageKilogramsPerUnit(stage, 0.001)
+    sticky = material(stage, "/World/Looks/sticky", dynamic=0.3, static=0.7)
+    for k in range(2):
+        prim = cube(stage, f"/World/box{k}", 0.1, Gf.Vec3d(k, 1, 0))
+        UsdPhysics.MassAPI.Apply(prim).CreateMassAttr(500.0)
+        bind(prim, sticky)
+    stage.Save()
+    with pytest.warns(UserWarning, match="dynamic one") as caught:
+        scene = ws.Scene.from_usd(tmp_path / "grams.usda")
+    assert sum("staticFriction" in str(w.message) for w in caught) == 1
+    assert [body.mass.mass for body in scene.bodies] == pytest.approx([0.5, 0.5])
+    assert [body.friction for body in scene.bodies] == pytest.approx([0.3, 0.3])
