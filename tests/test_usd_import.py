@@ -557,3 +557,29 @@ def test_kilograms_per_unit_and_a_two_friction_material_said_once(tmp_path):
     assert sum("staticFriction" in str(w.message) for w in caught) == 1
     assert [body.mass.mass for body in scene.bodies] == pytest.approx([0.5, 0.5])
     assert [body.friction for body in scene.bodies] == pytest.approx([0.3, 0.3])
+
+
+def test_a_disabled_body_is_static_and_an_open_mesh_is_a_terrain(tmp_path):
+    """physics:rigidBodyEnabled = false makes a body's shape a static collider, and an open mesh with no body
+    above it is a static surface (a terrain): a ball dropped on the terrain comes to rest on it (its radius
+    above), and the disabled box never moves."""
+    stage = new_stage(tmp_path / "terrain.usda")
+    terrain = UsdGeom.Mesh.Define(stage, "/World/terrain")
+    terrain.CreatePointsAttr([(-2, 0, -2), (2, 0, -2), (2, 0, 2), (-2, 0, 2)])
+    terrain.CreateFaceVertexCountsAttr([4])
+    terrain.CreateFaceVertexIndicesAttr([0, 3, 2, 1])        # its normal up
+    UsdPhysics.CollisionAPI.Apply(terrain.GetPrim())
+    frozen = cube(stage, "/World/frozen", 0.2, Gf.Vec3d(1, 1, 0))
+    UsdPhysics.RigidBodyAPI(frozen).CreateRigidBodyEnabledAttr(False)
+    ball = UsdGeom.Sphere.Define(stage, "/World/ball")
+    ball.CreateRadiusAttr(0.1)
+    ball.AddTranslateOp().Set(Gf.Vec3d(-0.5, 0.6, 0))
+    UsdPhysics.RigidBodyAPI.Apply(ball.GetPrim())
+    UsdPhysics.CollisionAPI.Apply(ball.GetPrim())
+    stage.Save()
+    scene = ws.Scene.from_usd(tmp_path / "terrain.usda")
+    assert scene.usd_paths["/World/frozen"][0] == "collider" and scene.usd_paths["/World/terrain"][0] == "collider"
+    assert not scene.colliders[scene.usd_paths["/World/terrain"][1]].shape.solid
+    sim = ws.Simulator(scene)
+    sim.step(1.0 / 60.0, steps=120)
+    assert sim.state.body_x.numpy()[0, 1] == pytest.approx(0.1, abs=2e-3)

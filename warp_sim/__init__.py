@@ -20,6 +20,7 @@ from .scene import (
                     Vortex,
 )
 from .simulator import RunInterrupted, Simulator
+from .sweep import SweepResult, sweep
 from .solvers import (
                     INTEGRATORS,
                     RK4,
@@ -37,5 +38,5 @@ from .util.version import __version__
 __all__ = ["Scene", "Simulator", "Model", "State", "Control", "SimulationDiverged", "AdaptiveStepFailed",
            "INTEGRATORS", "Integrator", "Euler", "Midpoint", "RK4", "SymplecticEuler", "VelocityVerlet",
            "ImplicitEuler", "RK45", "Shape", "Sphere", "Box", "Capsule", "Cylinder", "MeshShape", "PointMasses",
-           "MassProperties", "Ramp", "Attractor", "Vortex", "Turbulence", "RunInterrupted", "set_verbose",
-           "__version__"]
+           "MassProperties", "Ramp", "Attractor", "Vortex", "Turbulence", "RunInterrupted", "set_verbose", "sweep",
+           "SweepResult", "__version__"]

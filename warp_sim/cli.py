@@ -6,13 +6,14 @@ import pathlib
 import sys
 import time
 
-from . import studies
+from . import cluster, studies
 from .core.guards import SimulationDiverged
 from .demo import demo_scene
 from .scene import Scene
 from .simulator import RunInterrupted, Simulator
 from .solvers import INTEGRATORS, RK45
 from .studies import CASES, PROBLEMS
+from .sweep import sweep
 from .util.verbosity import set_verbose
 
 
@@ -57,16 +58,55 @@ def _run(args) -> int:
     return 0
 
 
+def _grid(items: list[str]) -> dict:
+    """--grid name=v1,v2,... options as a dict of lists: numbers where they parse, strings otherwise."""
+    grid = {}
+    for item in items:
+        name, sep, values = item.partition("=")
+        if not sep or not name.strip() or not values:
+            raise ValueError(f"--grid {item!r} is invalid: expected name=value1,value2,...")
+        grid[name.strip()] = [_number(value.strip()) for value in values.split(",")]
+    return grid
+
+
+def _number(text: str):
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def _sweep(args) -> int:
+    """warp-sim sweep: the variants of a script's build() over a grid, on a Dask cluster."""
+    if not args.grid:
+        raise ValueError("--grid is required: name=value1,value2,... (repeat it for more parameters)")
+
+    def started(client):
+        link = cluster.dashboard(client)
+        if link:
+            print(f"warp-sim sweep: Dask dashboard at {link}", flush=True)
+    clock = time.perf_counter()
+    result = sweep(args.script, _grid(args.grid), seconds=args.seconds, fps=args.fps, substeps=args.substeps,
+                   integrator=args.integrator, out=args.out, workers=args.workers, device=args.device,
+                   scheduler=args.scheduler, progress=not args.no_progress, on_start=started)
+    print(result.table())
+    print(f"in {time.perf_counter() - clock:.1f} s wall time")
+    return 0 if all(row["status"] == "done" for row in result.rows) else 1
+
+
 def _study(args) -> int:
     out = pathlib.Path(args.out or f"out/{args.study}")
     started = time.perf_counter()
     log = None if args.quiet else (lambda line: print(line, flush=True))
+    where = {"workers": args.workers, "scheduler": args.scheduler}
     if args.study == "accuracy":
         result = studies.accuracy(problems=args.problems, integrators=args.integrators, quick=args.quick,
-                                  device=args.device, repeats=args.repeats, log=log)
+                                  device=args.device, repeats=args.repeats, log=log, **where)
     else:
         result = studies.stability(cases=args.cases, integrators=args.integrators, quick=args.quick,
-                                   device=args.device, log=log)
+                                   device=args.device, log=log, **where)
     images = result.plot(out)
     result.to_csv(out / f"{args.study}.csv")
     report = result.to_markdown(out / f"{args.study}.md", images=images)
@@ -100,6 +140,25 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--flatten", action="store_true",
                      help="write one standalone stage (the input composed with the animation) instead of a layer")
     run.set_defaults(run=_run)
+    sweeping = commands.add_parser(
+        "sweep", help="run the variants of a scene over a grid of parameters, in parallel on a Dask cluster",
+        description="Run build(**params) of a script for every combination of the --grid values, each variant a "
+                    "task on a Dask worker (an embedded local cluster, or --scheduler), each written to "
+                    "OUT/<variant>.usdc, with OUT/sweep.json and OUT/sweep.csv holding one row per variant (and "
+                    "measure(sim) per variant when the script defines it). A rerun skips what is done.")
+    sweeping.add_argument("script", help="a .py file defining build(**params) -> Scene, and optionally measure(sim)")
+    sweeping.add_argument("--grid", action="append", default=[], metavar="NAME=V1,V2,...",
+                          help="a parameter and its values (numbers where they parse, else strings); repeatable")
+    sweeping.add_argument("--seconds", type=float, required=True, help="simulated seconds per variant")
+    sweeping.add_argument("--fps", type=float, default=60.0, help="frames per second (default: 60)")
+    sweeping.add_argument("--substeps", type=int, default=8, help="solver steps per frame (default: 8)")
+    sweeping.add_argument("--integrator", default="rk4", choices=sorted(INTEGRATORS), help="ODE solver (default: rk4)")
+    sweeping.add_argument("--device", default=None, help="Warp device on each worker (default: cuda when present)")
+    _cluster_options(sweeping)
+    sweeping.add_argument("--out", default="sweep", help="output folder (default: sweep)")
+    sweeping.add_argument("--no-progress", action="store_true", help="no progress bar")
+    sweeping.add_argument("--verbose", action="store_true", help="a traceback with any error")
+    sweeping.set_defaults(run=_sweep)
     _study_parser(commands, INTEGRATORS)
     return parser
 
@@ -130,6 +189,14 @@ def _run_options(parser, fps: float | None, out: str | None) -> None:
                         help="show Warp's compilation messages, and a traceback with any error")
 
 
+def _cluster_options(parser, alone: bool = False) -> None:
+    parser.add_argument("--workers", type=int, default=None,
+                        help="worker processes of an embedded local Dask cluster (default: "
+                             + ("none: one process)" if alone else "the cores)"))
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="run on this Dask scheduler instead (e.g. tcp://host:8786)")
+
+
 def _study_parser(commands, integrators) -> None:
     study = commands.add_parser(
         "study", help="run the accuracy or the stability study and write its report",
@@ -154,6 +221,7 @@ def _study_parser(commands, integrators) -> None:
             kind.add_argument("--cases", nargs="+", metavar="NAME", choices=list(CASES),
                               help=f"cases (default: all): {', '.join(CASES)}")
         kind.add_argument("--quiet", action="store_true", help="no progress lines")
+        _cluster_options(kind, alone=True)
         kind.add_argument("--verbose", action="store_true",
                           help="show Warp's compilation messages, and a traceback with any error")
         kind.set_defaults(run=_study)
@@ -182,7 +250,7 @@ def main(argv=None) -> int:
     set_verbose(verbose)
     try:
         return args.run(args)
-    except (ValueError, SimulationDiverged, OSError, KeyboardInterrupt) as error:
+    except (ValueError, SimulationDiverged, OSError, KeyboardInterrupt, ImportError) as error:
         if verbose:
             raise
         if isinstance(error, KeyboardInterrupt):
@@ -194,7 +262,7 @@ def main(argv=None) -> int:
             return 1
         kept = _kept(error, "free some space (or fix the cause), then ") if isinstance(error, OSError) else ""
         print(f"warp-sim: error: {error}{'' if kept == '; nothing was written' else kept}", file=sys.stderr)
-        return 2 if isinstance(error, ValueError) else 1
+        return 2 if isinstance(error, (ValueError, ImportError)) else 1
 
 
 if __name__ == "__main__":

@@ -68,7 +68,7 @@ class Simulator(Persistent):
     State; a new object after each step, so read ``sim.state.particle_x`` afresh), dynamics, integrator, passes (in
     order);
     body_contacts, particle_shapes, impacts, strain_limiter, emitters (those passes, or None); guard;
-    time [s]; step_count.
+    time [s]; step_count; output: the stage the last run() wrote (a pathlib.Path), or None.
     """
 
     persistent = ("time", "step_count")
@@ -113,6 +113,7 @@ class Simulator(Persistent):
         self.guard = Guard(self.model, self.dynamics.components, speed) if guard else None
         self.time = 0.0
         self.step_count = 0
+        self.output = None
 
     @property
     def device(self):
@@ -335,7 +336,8 @@ class Simulator(Persistent):
                             saved, values = persistence.save(self)
                             writer.checkpoint(saved, dict(values, **{"run.start_time": start_time}))
                     bar.update(1)
-            return writer.close(keep_checkpoint) if writer is not None else None
+            self.output = writer.close(keep_checkpoint) if writer is not None else None
+            return self.output
         except SimulationDiverged as error:
             if writer is not None and writer.frames_written:
                 error.frames_written, error.usd = writer.frames_written, writer.close()

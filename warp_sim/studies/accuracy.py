@@ -18,6 +18,7 @@ from functools import lru_cache
 import numpy as np
 import warp as wp
 
+from .. import cluster
 from ..core.guards import SimulationDiverged
 from ..simulator import Simulator, resolve_device
 from ..solvers import INTEGRATORS, make_integrator
@@ -136,14 +137,46 @@ class AccuracyResult(report.Report):
         return work_precision(self, directory)
 
 
+def integrator_points(name: str, integrator: str, counts: list, exact, device: str, repeats: int, budget: float,
+                      tols: list, divide: bool, cap: int) -> tuple[list[dict], dict]:
+    """(points, fitted order) of one integrator on problem ``name`` (a task of its own on a cluster)."""
+    problem = PROBLEMS[name]
+    exact = np.asarray(exact)
+    _simulate(problem, integrator, UNTIMED + 1, device, 1e-3 if is_adaptive(integrator) else None)  # warm-up
+    if is_adaptive(integrator):
+        points = [_point(problem, integrator, ADAPTIVE_CALLS, device, repeats, budget, exact, tol) for tol in tols]
+        fit = observed_order([p["rtol"] for p in points], [p["error"] for p in points])
+    else:
+        divisor = 1
+        while integrator in COSTLY and divide and max(counts) // divisor > cap:
+            divisor *= 2
+        points = [_point(problem, integrator, max(UNTIMED + 1, n // divisor), device, repeats, budget, exact)
+                  for n in counts]
+        fit = observed_order([p["h"] for p in points], [p["error"] for p in points])
+    for point in points:
+        point["observed_order"] = fit["order"] if fit["order"] is not None else math.nan
+    return points, {"problem": name, "integrator": integrator, "expected": INTEGRATORS[integrator].order,
+                    "knob": "rtol" if is_adaptive(integrator) else "h", **fit}
+
+
+def _exact(name: str, counts: list, quick: bool, device: str) -> list:
+    """The reference answer of a problem: its closed form, or a run at a much finer step."""
+    problem = PROBLEMS[name]
+    if problem.exact is not None:
+        return np.asarray(problem.exact()).tolist()
+    return np.asarray(_reference(name, (QUICK_REFINE if quick else REFINE) * max(counts), device)).tolist()
+
+
 def accuracy(problems=None, integrators=None, steps=None, quick=False, device="cpu", repeats=3,
-             tolerances=None, log=None) -> AccuracyResult:
+             tolerances=None, log=None, client=None, workers=None, scheduler=None) -> AccuracyResult:
     """Run the accuracy study; returns an AccuracyResult.
 
     problems, integrators: names (default: all of PROBLEMS and INTEGRATORS); steps: step sizes h [s]
     used for every problem (default: each problem's own six, or four with quick), rounded to
     duration / N; tolerances: rtol values for adaptive solvers; repeats >= 1 timed runs per point;
-    log: a callable given one line of progress per problem.
+    log: a callable given one line of progress per problem; client, scheduler or workers: run each reference and
+    each (problem, integrator) as a task on a Dask cluster (``cluster.connect``): the same rows but for the
+    measured times.
     """
     started = time.perf_counter()
     chosen = names("problems", problems, list(PROBLEMS))
@@ -158,35 +191,24 @@ def accuracy(problems=None, integrators=None, steps=None, quick=False, device="c
     device = resolve_device(device)
     cap = QUICK_COSTLY_STEPS if quick else COSTLY_STEPS
     budget = QUICK_REPEAT_SECONDS if quick else REPEAT_SECONDS
-    rows, orders = [], []
-    for name in chosen:
-        problem = PROBLEMS[name]
-        counts = sorted({max(UNTIMED + 1, round(problem.duration / h)) for h in sizes}) if sizes else \
-            list(problem.quick_steps if quick else problem.steps)
-        exact = problem.exact() if problem.exact is not None else \
-            np.array(_reference(name, (QUICK_REFINE if quick else REFINE) * max(counts), device))
-        for integrator in solvers:
-            _simulate(problem, integrator, UNTIMED + 1, device, 1e-3 if is_adaptive(integrator) else None)  # warm-up
-            if is_adaptive(integrator):
-                points = [_point(problem, integrator, ADAPTIVE_CALLS, device, repeats, budget, exact, tol)
-                          for tol in tols]
-                fit = observed_order([p["rtol"] for p in points], [p["error"] for p in points])
-            else:
-                divisor = 1
-                while integrator in COSTLY and not sizes and max(counts) // divisor > cap:
-                    divisor *= 2
-                points = [_point(problem, integrator, max(UNTIMED + 1, n // divisor), device, repeats, budget,
-                                 exact)
-                          for n in counts]
-                fit = observed_order([p["h"] for p in points], [p["error"] for p in points])
-            for point in points:
-                point["observed_order"] = fit["order"] if fit["order"] is not None else math.nan
-            rows += points
-            orders.append({"problem": name, "integrator": integrator, "expected": INTEGRATORS[integrator].order,
-                           "knob": "rtol" if is_adaptive(integrator) else "h", **fit})
-        if log is not None:
-            found = ", ".join(o["integrator"] + " " + report.number(o["order"]) for o in orders[-len(solvers):])
-            log(f"{name}: orders {found} ({time.perf_counter() - started:.0f} s)")
+    counts = {name: sorted({max(UNTIMED + 1, round(PROBLEMS[name].duration / h)) for h in sizes}) if sizes else
+              list(PROBLEMS[name].quick_steps if quick else PROBLEMS[name].steps) for name in chosen}
+    where = (client, scheduler, workers)
+    exact = dict(zip(chosen, cluster.map_tasks(_exact, [(f"reference-{name}", (name, counts[name], quick, device))
+                                                        for name in chosen], *where, "references")))
+    tasks = [(f"{name}-{integrator}", (name, integrator, counts[name], exact[name], device, repeats, budget, tols,
+                                       not sizes, cap)) for name in chosen for integrator in solvers]
+    arrived: dict[str, dict] = {}
+
+    def logged(key, result):   # a line per problem, once all its integrators are in
+        fit = result[1]
+        arrived.setdefault(fit["problem"], {})[fit["integrator"]] = fit
+        if log is not None and len(arrived[fit["problem"]]) == len(solvers):
+            found = ", ".join(i + " " + report.number(arrived[fit["problem"]][i]["order"]) for i in solvers)
+            log(f"{fit['problem']}: orders {found} ({time.perf_counter() - started:.0f} s)")
+    results = cluster.map_tasks(integrator_points, tasks, *where, "accuracy points", logged)
+    rows = [point for points, _ in results for point in points]
+    orders = [fit for _, fit in results]
     closed_forms = [] if quick else closed_form_checks(chosen, device)
     settings = {"quick": quick, "device": device, "repeats": repeats, "tolerances": tols}
     return AccuracyResult(rows, orders, time.perf_counter() - started, settings, closed_forms)

@@ -15,6 +15,7 @@ import math
 import time
 from dataclasses import dataclass, field
 
+from .. import cluster
 from ..simulator import Simulator, resolve_device
 from ..solvers import INTEGRATORS
 from ..util import checks
@@ -149,12 +150,33 @@ class StabilityResult(report.Report):
         return stability_plots(self, directory)
 
 
-def stability(cases=None, integrators=None, quick=False, device="cpu", log=None) -> StabilityResult:
+def stability_row(name: str, integrator: str, device: str, quick: bool) -> dict:
+    """One row of the study: the largest stable step of ``integrator`` on case ``name``, next to theory (a task of
+    its own when the study runs on a cluster)."""
+    case = CASES[name]
+    found = largest_stable_step(case, integrator, device, quick)
+    steps = _run_steps(case, integrator, found["limit"] or case.h0 or 1.0, quick)
+    theory = THEORY[integrator] if case.omega is not None else None
+    if theory is None and case.omega is not None and case.duration is None:
+        theory = run_length_limit(integrator, steps)
+    limit, unstable = found["limit"] or math.nan, found["unstable"] or math.nan
+    omega_h = limit * case.omega if case.omega else math.nan
+    return {"case": name, "group": case.group, "integrator": integrator, "limit": limit,
+            "unstable": unstable, "omega": case.omega or math.nan, "limit_omega_h": omega_h,
+            "theory_omega_h": math.nan if theory is None else theory,
+            "ratio": omega_h / theory if theory and math.isfinite(theory) else math.nan,
+            "steps_per_run": steps if case.duration is None else math.nan, "probes": found["probes"]}
+
+
+def stability(cases=None, integrators=None, quick=False, device="cpu", log=None, client=None, workers=None,
+              scheduler=None) -> StabilityResult:
     """Run the stability study; returns a StabilityResult.
 
     cases: names from CASES (default: all; with quick, the springs at ks/m = 1e2 and 1e8 and every
     extreme case); integrators: names from INTEGRATORS (default: all fixed-step ones; adaptive
-    solvers choose their own step and are skipped); log: a callable given a line per case.
+    solvers choose their own step and are skipped); log: a callable given a line per case;
+    client, scheduler or workers: run each (case, integrator) as a task on a Dask cluster (``cluster.connect``),
+    which gives the same rows.
     """
     started = time.perf_counter()
     chosen = names("cases", cases, list(CASES))
@@ -168,25 +190,15 @@ def stability(cases=None, integrators=None, quick=False, device="cpu", log=None)
         raise checks.fail("integrators", integrators, f"{', '.join(adaptive)} choose their own step from a tolerance; "
                                                       f"expected fixed-step solvers from {', '.join(fixed)}")
     device = resolve_device(device)
-    rows = []
-    for name in chosen:
-        case = CASES[name]
-        for integrator in solvers:
-            found = largest_stable_step(case, integrator, device, quick)
-            steps = _run_steps(case, integrator, found["limit"] or case.h0 or 1.0, quick)
-            theory = THEORY[integrator] if case.omega is not None else None
-            if theory is None and case.omega is not None and case.duration is None:
-                theory = run_length_limit(integrator, steps)
-            limit, unstable = found["limit"] or math.nan, found["unstable"] or math.nan
-            omega_h = limit * case.omega if case.omega else math.nan
-            rows.append({"case": name, "group": case.group, "integrator": integrator, "limit": limit,
-                         "unstable": unstable, "omega": case.omega or math.nan, "limit_omega_h": omega_h,
-                         "theory_omega_h": math.nan if theory is None else theory,
-                         "ratio": omega_h / theory if theory and math.isfinite(theory) else math.nan,
-                         "steps_per_run": steps if case.duration is None else math.nan, "probes": found["probes"]})
-        if log is not None:
-            shown = ", ".join(f"{r['integrator']} {report.number(r['limit'])}" for r in rows[-len(solvers):])
-            log(f"{name}: largest stable h [s] {shown} ({time.perf_counter() - started:.0f} s)")
+    tasks = [(f"{name}-{integrator}", (name, integrator, device, quick)) for name in chosen for integrator in solvers]
+    arrived: dict[str, dict] = {}
+
+    def logged(key, row):   # a line per case, once all its integrators are in
+        arrived.setdefault(row["case"], {})[row["integrator"]] = row
+        if log is not None and len(arrived[row["case"]]) == len(solvers):
+            shown = ", ".join(f"{i} {report.number(arrived[row['case']][i]['limit'])}" for i in solvers)
+            log(f"{row['case']}: largest stable h [s] {shown} ({time.perf_counter() - started:.0f} s)")
+    rows = cluster.map_tasks(stability_row, tasks, client, scheduler, workers, "stability cases", logged)
     damping = implicit_damping(device, quick) if "implicit_euler" in solvers else []
     settings = {"quick": quick, "device": device, "growth": GROWTH}
     return StabilityResult(rows, damping, time.perf_counter() - started, settings)
