@@ -168,3 +168,17 @@ def test_the_stability_study_on_two_workers_gives_the_same_rows(two_workers):
     alone = studies.stability(**options)
     spread = studies.stability(**options, client=two_workers)
     assert repr(spread.rows) == repr(alone.rows)          # every value, NaN included, digit for digit
+
+
+def test_the_accuracy_study_on_two_workers_gives_the_same_errors(two_workers):
+    """References and (problem, integrator) points as tasks: every error, step and order as in one process; only
+    the measured cost (and how often a point was repeated to fill its time budget) may differ."""
+    options = dict(problems=["oscillator", "bouncing_ball"], integrators=["euler", "rk4", "rk45"], quick=True,
+                   repeats=1)
+    alone = studies.accuracy(**options)
+    spread = studies.accuracy(**options, client=two_workers)
+    timed = ("seconds_per_simulated_second", "repeats")
+
+    def untimed(rows):
+        return repr([{k: v for k, v in row.items() if k not in timed} for row in rows])
+    assert untimed(spread.rows) == untimed(alone.rows) and repr(spread.orders) == repr(alone.orders)
