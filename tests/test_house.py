@@ -8,7 +8,7 @@ import pytest
 PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "warp_sim"
 MAX_LINES = 600
 #: imports allowed inside a function: optional dependencies only, imported where they are used
-OPTIONAL = {"matplotlib.backends.backend_agg", "matplotlib.figure", "pandas"}
+OPTIONAL = {"matplotlib.backends.backend_agg", "matplotlib.figure", "pandas", "distributed"}
 #: the layers, bottom first; a module may import its own layer and those listed before it
 LAYERS = ["util", "scene", "kernels", "core", "detection", "forces", "solvers", "passes", "assembly", "stages",
           "simulator", "cluster", "sweep", "preview", "studies", "demo", "cli", "__init__"]

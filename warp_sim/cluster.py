@@ -17,17 +17,14 @@ from tqdm.auto import tqdm
 
 from .util import checks
 
-try:
-    from distributed import Client, LocalCluster, as_completed, get_worker
-except ImportError:   # the optional extra is missing: connect() explains
-    Client = LocalCluster = as_completed = get_worker = None
-
 #: retries of a task whose function raised or whose worker died (Dask reschedules a lost task by itself too)
 RETRIES = 2
 
 
 def require_dask() -> None:
-    if Client is None:
+    """ImportError with the install line when Dask is missing (it is imported only where it is used, so that
+    ``import warp_sim`` does not pay for it: about half a second)."""
+    if importlib.util.find_spec("distributed") is None:
         raise ImportError("sweeps and distributed studies need Dask: pip install 'warp-sim[cluster]' "
                           "(dask[distributed])")
 
@@ -38,6 +35,8 @@ def connect(client=None, scheduler: str | None = None, workers: int | None = Non
     else a LocalCluster of ``workers`` processes (default: the number of cores), one thread each, on 127.0.0.1,
     with its dashboard when bokeh is installed. A client or cluster made here is closed at the end."""
     require_dask()
+    from distributed import Client, LocalCluster  # optional: the cluster extra
+
     if client is not None:
         if not isinstance(client, Client):
             raise checks.fail("client", client, "expected a dask.distributed.Client")
@@ -67,8 +66,10 @@ def dashboard(client) -> str | None:
 
 def worker_name() -> str:
     """The Dask worker running this task ("local" outside one)."""
-    if get_worker is None:
+    if importlib.util.find_spec("distributed") is None:
         return "local"
+    from distributed import get_worker  # optional: the cluster extra
+
     try:
         worker = get_worker()
     except ValueError:
@@ -83,6 +84,8 @@ def run_tasks(client, function, tasks: list[tuple[str, tuple]], progress: str | 
     Each result is handed to ``on_result(key, result)`` as it arrives (in completion order); ``progress`` is the
     progress bar's label (None: no bar). A task whose function raises is retried ``retries`` times, then its
     exception propagates; a task whose worker dies is run again elsewhere."""
+    from distributed import as_completed  # optional: the cluster extra
+
     futures = {client.submit(function, *args, key=f"warp-sim-{key}", retries=retries, pure=False): key
                for key, args in tasks}
     results = {}

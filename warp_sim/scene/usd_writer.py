@@ -12,7 +12,7 @@ import os
 import warnings
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
 
 from ..util import checks
 from ..util.rotations import matrix_to_quat, quat_to_matrix
@@ -21,6 +21,10 @@ from . import usd_attributes
 
 def _quat(q) -> Gf.Quatf:
     return Gf.Quatf(float(q[3]), float(q[0]), float(q[1]), float(q[2]))
+
+
+def _points(a) -> Vt.Vec3fArray:
+    return Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(a, dtype=np.float32).reshape(-1, 3))
 
 
 def _place(prim, position, orientation) -> None:
@@ -62,9 +66,9 @@ class _Writer:
             prim.CreateHeightAttr(2.0 * float(shape.half_height))
         elif kind == "mesh":
             mesh = UsdGeom.Mesh.Define(self.stage, path)
-            mesh.CreatePointsAttr([Gf.Vec3f(*p) for p in np.asarray(shape.vertices, dtype=np.float64).tolist()])
-            mesh.CreateFaceVertexCountsAttr([3] * len(shape.faces))
-            mesh.CreateFaceVertexIndicesAttr(np.asarray(shape.faces, dtype=np.int32).ravel().tolist())
+            mesh.CreatePointsAttr(_points(shape.vertices))
+            mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(shape.faces), 3, dtype=np.int32)))
+            mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.asarray(shape.faces, dtype=np.int32).ravel()))
             UsdPhysics.MeshCollisionAPI.Apply(mesh.GetPrim()).CreateApproximationAttr("none")
         else:
             self.left_out.setdefault(f"{kind} shapes (UsdPhysics has none)", []).append(owner)
@@ -130,9 +134,9 @@ class _Writer:
                 continue
             span = slice(group.start, group.start + group.count)
             points = UsdGeom.Points.Define(self.stage, f"/World/Particles/{_identifier(group.name)}")
-            points.CreatePointsAttr([Gf.Vec3f(*p) for p in x[span].tolist()])
-            points.CreateVelocitiesAttr([Gf.Vec3f(*p) for p in v[span].tolist()])
-            points.CreateWidthsAttr((2.0 * radius[span]).tolist())
+            points.CreatePointsAttr(_points(x[span]))
+            points.CreateVelocitiesAttr(_points(v[span]))
+            points.CreateWidthsAttr(Vt.FloatArray.FromNumpy(np.ascontiguousarray(2.0 * radius[span], dtype=np.float32)))
             values = {"mass": mass[span].tolist(), "pinned": np.flatnonzero(pinned[span]).tolist() or None}
             restitution, friction = scene.particle_array("restitution")[span], scene.particle_array("friction")[span]
             if restitution[0] >= 0.0:
@@ -153,9 +157,9 @@ class _Writer:
             self.left_out.setdefault("soft bodies", []).append(mesh.name)
             return
         geom = UsdGeom.Mesh.Define(self.stage, f"/World/Meshes/{_identifier(mesh.name)}")
-        geom.CreatePointsAttr([Gf.Vec3f(*p) for p in x[span].tolist()])
-        geom.CreateFaceVertexCountsAttr(np.asarray(mesh.face_counts, dtype=np.int32).tolist())
-        geom.CreateFaceVertexIndicesAttr(np.asarray(mesh.face_indices, dtype=np.int32).tolist())
+        geom.CreatePointsAttr(_points(x[span]))
+        geom.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.asarray(mesh.face_counts, dtype=np.int32)))
+        geom.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.asarray(mesh.face_indices, dtype=np.int32)))
         springs = self.scene
         families = ("structural", "shear", "bend")
 
