@@ -104,7 +104,7 @@ class NewtonPile:
     has one, with the sweep-and-prune broad phase where it takes one; else model.collide)."""
 
     def __init__(self, newton, parameters: dict, device):
-        builder = newton.ModelBuilder(up_axis=newton.Axis.Y, gravity=-9.81)
+        builder = newton.ModelBuilder(up_axis=newton.Axis.Y, gravity=(0.0, -9.81, 0.0))   # Newton 1.8: a 3-vector
         config = newton.ModelBuilder.ShapeConfig(density=DENSITY, mu=FRICTION, restitution=RESTITUTION)
         builder.add_ground_plane(cfg=config)
         for kind, size, position, orientation in zip(parameters["kind"].tolist(), parameters["size"].tolist(),
