@@ -1,5 +1,6 @@
-"""Small scene builders shared by the tests."""
+"""Small scene builders and stage readers shared by the tests."""
 import numpy as np
+from pxr import Sdf
 
 import warp_sim as ws
 from warp_sim.scene import SurfaceMesh
@@ -68,3 +69,17 @@ def add_grid(scene, n=8, spacing=0.1, mass=0.01, stiffness=10.0, damping=0.01, h
 def host(array):
     """A float64 copy of a device array (on the CPU, .numpy() shares the array's memory)."""
     return np.array(array.numpy(), dtype=np.float64)
+
+
+def stage_samples(path) -> dict:
+    """Every time sample of a USD file: (attribute path, time) -> the value's bytes (or repr for scalars)."""
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    found = {}
+
+    def visit(spec_path):
+        if spec_path.IsPropertyPath():
+            for t in layer.ListTimeSamplesForPath(spec_path):
+                value = layer.QueryTimeSample(spec_path, t)
+                found[(str(spec_path), t)] = np.asarray(value).tobytes() if hasattr(value, "__len__") else repr(value)
+    layer.Traverse(Sdf.Path.absoluteRootPath, visit)
+    return found

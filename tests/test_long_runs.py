@@ -42,11 +42,13 @@ def test_file_size_stays_linear_in_frames(tmp_path):
 
 @pytest.mark.parametrize("make, error, shown", [
     (lambda tmp: tmp / "adir.usdc", ValueError, "existing folder"),
+    (lambda tmp: tmp / "plain", ValueError, "existing folder; give a file path such as '.*plain/out.usdc'"),
     (lambda tmp: "", ValueError, "usd=''"),
     (lambda tmp: tmp / "x.obj", ValueError, "must end in"),
 ])
 def test_bad_output_path_fails_before_the_first_step(tmp_path, make, error, shown):
     (tmp_path / "adir.usdc").mkdir()
+    (tmp_path / "plain").mkdir()
     sim = ws.Simulator(particles(4))
     with pytest.raises(error, match=shown):
         sim.run(1.0, usd=make(tmp_path), progress=False)

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 import pytest
-from pxr import Sdf
+from helpers import stage_samples
 
 import warp_sim as ws
 from warp_sim.demo import demo_scene
@@ -20,22 +20,8 @@ from warp_sim.stages import writer as writer_module
 from warp_sim.stages.runs import CHECKPOINT, RunFolder, run_folder, strays
 
 
-def samples(path) -> dict:
-    """Every time sample of a stage: (attribute path, time) -> the value's bytes (or repr for scalars)."""
-    layer = Sdf.Layer.FindOrOpen(str(path))
-    found = {}
-
-    def visit(spec_path):
-        if spec_path.IsPropertyPath():
-            for t in layer.ListTimeSamplesForPath(spec_path):
-                value = layer.QueryTimeSample(spec_path, t)
-                found[(str(spec_path), t)] = np.asarray(value).tobytes() if hasattr(value, "__len__") else repr(value)
-    layer.Traverse(Sdf.Path.absoluteRootPath, visit)
-    return found
-
-
 def assert_same_samples(resumed, reference):
-    a, b = samples(resumed), samples(reference)
+    a, b = stage_samples(resumed), stage_samples(reference)
     assert a.keys() == b.keys()
     different = [key for key in a if a[key] != b[key]]
     assert not different, f"{len(different)} of {len(a)} samples differ, first {different[0]}"

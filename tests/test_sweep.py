@@ -8,9 +8,9 @@ import textwrap
 import threading
 import time
 
-import numpy as np
 import pytest
-from pxr import Sdf, Usd
+from helpers import stage_samples
+from pxr import Usd
 
 distributed = pytest.importorskip("distributed")
 
@@ -52,19 +52,6 @@ def two_workers():
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=":0") as cluster, distributed.Client(cluster) as client:
         yield client
-
-
-def samples(path) -> dict:
-    layer = Sdf.Layer.FindOrOpen(str(path))
-    found = {}
-
-    def visit(spec):
-        if spec.IsPropertyPath():
-            for t in layer.ListTimeSamplesForPath(spec):
-                value = layer.QueryTimeSample(spec, t)
-                found[(str(spec), t)] = np.asarray(value).tobytes() if hasattr(value, "__len__") else repr(value)
-    layer.Traverse(Sdf.Path.absoluteRootPath, visit)
-    return found
 
 
 def test_a_bouncing_ball_sweep_gives_e_squared_apexes(tmp_path, two_workers):
@@ -114,7 +101,7 @@ def test_one_worker_and_two_give_identical_stages(tmp_path, two_workers):
                    progress=False)
     for a, b in zip(one.rows, two.rows):
         assert a["id"] == b["id"] and a["measures"] == b["measures"]
-        assert samples(tmp_path / "one" / a["usd"]) == samples(tmp_path / "two" / b["usd"])
+        assert stage_samples(tmp_path / "one" / a["usd"]) == stage_samples(tmp_path / "two" / b["usd"])
 
 
 def test_a_worker_killed_mid_sweep_still_finishes_every_variant_once(tmp_path):

@@ -110,12 +110,17 @@ def read(scene, stage, time, units, link) -> None:
                  pooled=True)
 
 
-def _name(scene, prim) -> str:
-    taken = {group.name for group in scene.particle_groups} | {e.name for e in scene.emitters}
-    label, k = prim.GetName(), 1
+def unique(name: str, existing) -> str:
+    """``name``, or ``name_1``, ``name_2``, ... : the first not taken by the ``name`` of any of ``existing``."""
+    taken = {item.name for item in existing}
+    label, k = name, 1
     while label in taken:
-        label, k = f"{prim.GetName()}_{k}", k + 1
+        label, k = f"{name}_{k}", k + 1
     return label
+
+
+def _name(scene, prim) -> str:
+    return unique(prim.GetName(), [*scene.particle_groups, *scene.emitters])
 
 
 def write(prim, names: dict, values: dict) -> None:

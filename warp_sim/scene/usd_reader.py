@@ -206,7 +206,8 @@ class _Reader:
         index = self.scene.add_rigid_body(shape, mass_properties=properties, position=origin,
                                           orientation=matrix_to_quat(R_world @ Rs), linear_velocity=velocity,
                                           angular_velocity=spin, restitution=restitution, friction=friction,
-                                          name=self._unique(prim.GetName(), self.scene.bodies), kinematic=track)
+                                          name=usd_attributes.unique(prim.GetName(), self.scene.bodies),
+                                          kinematic=track)
         self._link(path, "body", index, offset=(Rs, ps), kinematic=desc.kinematicBody)
 
     def _track(self, prim, Rs, ps) -> tuple:
@@ -262,8 +263,8 @@ class _Reader:
             point = u.point(p_body + R_body @ _vec(desc.localPos))
             normal = u.direction(normal_stage)
             index = self.scene.add_plane(normal, float(normal @ point), restitution, friction,
-                                         name=self._unique(self.stage.GetPrimAtPath(path).GetName(),
-                                                           self.scene.planes))
+                                         name=usd_attributes.unique(self.stage.GetPrimAtPath(path).GetName(),
+                                                                self.scene.planes))
             self._link(path, "plane", index)
             return
         made = self._shape(kind, desc, path)
@@ -272,13 +273,12 @@ class _Reader:
         shape, Rs, ps = made
         if body is not None:
             Rs, ps = u.rotation(R_body) @ Rs, u.point(p_body) + u.rotation(R_body) @ ps
-        else:
-            Rs = u.rotation(Rs)
-            ps = u.point(ps / u.meters_per_unit)
+        else:   # the shape's frame is in the stage's world: turn it to warp_sim's axes (its length already scaled)
+            Rs, ps = u.rotation(Rs), u.C @ ps
         index = self.scene.add_collider(shape, position=ps, orientation=matrix_to_quat(Rs), restitution=restitution,
                                         friction=friction,
-                                        name=self._unique(self.stage.GetPrimAtPath(path).GetName(),
-                                                          self.scene.colliders))
+                                        name=usd_attributes.unique(self.stage.GetPrimAtPath(path).GetName(),
+                                                               self.scene.colliders))
         self._link(path, "collider", index)
 
     # ---- everything else ----------------------------------------------------------------------------------------
@@ -315,14 +315,6 @@ class _Reader:
             link.offset = offset
         self.source.links.append(link)
         self.scene.usd_paths[path] = (kind, index)
-
-    @staticmethod
-    def _unique(name: str, existing) -> str:
-        taken = {item.name for item in existing}
-        label, k = name, 1
-        while label in taken:
-            label, k = f"{name}_{k}", k + 1
-        return label
 
 
 def _open(source):

@@ -12,7 +12,7 @@ import os
 import warnings
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
 
 from ..util import checks
 from ..util.rotations import matrix_to_quat, quat_to_matrix
@@ -204,8 +204,7 @@ def _turn_y_to(direction) -> np.ndarray:
 
 
 def _identifier(name: str) -> str:
-    text = "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in name)
-    return text if text and not text[0].isdigit() else f"_{text}"
+    return Tf.MakeValidIdentifier(str(name))   # the rule the stage writer names its prims by
 
 
 def write(scene, path) -> str:

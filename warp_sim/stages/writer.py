@@ -106,8 +106,9 @@ class StageWriter:
         self._pools = [w.pool for w in self._writers if w.pool is not None]
         self._frames = 0
 
-        require(not self._path.is_dir(), f"usd={str(path)!r} is invalid: it is an existing folder; give a file path "
-                                         f"such as {str(self._path / ('out' + ext))!r}")
+        folder = next((p for p in (pathlib.Path(path), self._path) if p.is_dir()), None)   # as given, and with .usdc
+        require(folder is None, f"usd={str(path)!r} is invalid: it is an existing folder; give a file path such as "
+                                f"{str((folder or self._path) / ('out' + ext))!r}")
         try:
             self._path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as error:
