@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import warp as wp
+
 from .core.components import Particles, RigidBodies
 from .core.control import Control
 from .core.dynamics import Dynamics
@@ -25,7 +27,8 @@ from .passes import (
     StrainLimiter,
 )
 from .scene import Scene
-from .solvers import Integrator, make_integrator
+from .solvers import Integrator, SymplecticEuler, make_integrator
+from .solvers.fused import FusedParticleStep
 
 RESPONSES = ("impulse", "penalty")
 
@@ -35,7 +38,8 @@ class Assembly:
     """What a Simulator runs: the model, the user's controls, the ODE right-hand side, the solver and the passes.
 
     passes: every after-step pass, in the order they run; body_contacts, particle_shapes, impacts,
-    strain_limiter, emitters: the same passes by name (None where absent).
+    strain_limiter, emitters: the same passes by name (None where absent); fused: the fused step that replaces the
+    solver and the plane impulses (None: the generic path), and after_fused: the passes that run after it.
     """
     model: Model
     control: Control
@@ -47,6 +51,8 @@ class Assembly:
     impacts: PlaneImpacts | None
     strain_limiter: StrainLimiter | None
     emitters: EmitterPools | None
+    fused: FusedParticleStep | None = None
+    after_fused: list[Pass] | None = None
 
 
 def _present(parts):
@@ -54,7 +60,7 @@ def _present(parts):
 
 
 def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: float, contact_margin: float,
-             collisions: bool, contact_step: float | None = None) -> Assembly:
+             collisions: bool, contact_step: float | None = None, fused: bool = True) -> Assembly:
     """Build every part ``scene`` needs on ``device`` (arguments as Simulator's, checked there)."""
     model = Model(scene, device)
     control = Control(model)
@@ -99,5 +105,27 @@ def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: 
         for contact_pass in _present([impacts, particle_shapes]):
             contact_pass.touched = emitters.touched
     solver.bind(dynamics)   # last: a solver instance stays unbound (reusable) if anything above refused the scene
-    return Assembly(model, control, dynamics, solver, passes, body_contacts, particle_shapes, impacts,
-                    strain_limiter, emitters)
+    parts = Assembly(model, control, dynamics, solver, passes, body_contacts, particle_shapes, impacts,
+                     strain_limiter, emitters)
+    if fused:
+        parts.fused, parts.after_fused = fused_step(parts)
+    return parts
+
+
+def fused_step(parts: Assembly) -> tuple[FusedParticleStep | None, list[Pass] | None]:
+    """The fused step for these parts and the passes after it, or (None, None) for the generic path.
+
+    The rule (docs/architecture.md): a fused step replaces a solver's whole step and the passes it folds in, so it
+    applies only where nothing else runs in between: symplectic_euler, particles the only component (cloth and
+    springs are force terms), and no pass before the plane impulses (strain limiting, contacts with bodies and
+    shapes, kinematic bodies); the passes after them (emitter pools) run after it.
+    """
+    only_particles = [component.name for component in parts.dynamics.components] == ["particles"]
+    if type(parts.integrator) is not SymplecticEuler or not only_particles:
+        return None, None
+    folded = {id(parts.impacts)} if parts.impacts is not None else set()
+    order = [p for p in parts.passes if id(p) not in folded]
+    if any(p is not parts.emitters for p in order):
+        return None, None
+    touched = parts.impacts.touched if parts.impacts is not None else parts.model.empty(wp.int32)
+    return FusedParticleStep(parts.dynamics, parts.impacts is not None, touched), order

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
 import signal
 import threading
 import warnings
@@ -11,6 +12,7 @@ import numpy as np
 import warp as wp
 from tqdm.auto import tqdm
 
+from . import kernels
 from .assembly import RESPONSES, assemble
 from .core import persistence
 from .core.guards import Guard, SimulationDiverged
@@ -58,6 +60,9 @@ class Simulator(Persistent):
     contact_step: the longest step the impulse response between bodies takes [s]: a longer ``step(dt)`` is
         split into equal sub-steps inside step() (sim.step(1/60) takes two of 1/120 s), which is what holds
         stacks and landing piles at frame rate; None never splits (``sim.substeps(dt)`` says how many)
+    fused: take the fused step where the scene has one (particles and cloth under symplectic_euler, with their
+        plane impulses and guard in one launch; ``sim.fused`` is it, or None), the same states bit for bit as
+        the generic path; False: always the generic path
 
     With "rk45" each ``step(dt)`` lands exactly on t + dt, taking as many internal steps as the tolerance
     needs (``sim.integrator.stats()`` counts them), so ``run(..., substeps=1)`` is the natural choice.
@@ -67,7 +72,7 @@ class Simulator(Persistent):
     Attributes: scene; settings (the options above); model (constants), control (held inputs), state (the current
     State; a new object after each step, so read ``sim.state.particle_x`` afresh), dynamics, integrator, passes (in
     order);
-    body_contacts, particle_shapes, impacts, strain_limiter, emitters (those passes, or None); guard;
+    body_contacts, particle_shapes, impacts, strain_limiter, emitters (those passes, or None); guard; fused;
     time [s]; step_count; output: the stage the last run() wrote (a pathlib.Path), or None.
     """
 
@@ -75,7 +80,8 @@ class Simulator(Persistent):
 
     def __init__(self, scene: Scene, integrator="rk4", device: str | None = None, contact: str = "impulse",
                  penalty_stiffness: float = 1.0e4, guard: bool = True, max_speed: float = 1.0e4,
-                 contact_margin: float = 0.005, collisions: bool = True, contact_step: float | None = 1.0 / 120.0):
+                 contact_margin: float = 0.005, collisions: bool = True, contact_step: float | None = 1.0 / 120.0,
+                 fused: bool = True):
         if not isinstance(scene, Scene):
             raise checks.fail("scene", scene, "expected a warp_sim.Scene")
         if scene.particle_count == 0 and scene.body_count == 0:
@@ -88,13 +94,15 @@ class Simulator(Persistent):
             raise checks.fail("collisions", collisions, "expected True or False")
         if not isinstance(guard, bool):
             raise checks.fail("guard", guard, "expected True or False")
+        if not isinstance(fused, bool):
+            raise checks.fail("fused", fused, "expected True or False")
         if contact_step is not None:
             contact_step = checks.scalar("contact_step", contact_step, low=0.0, low_open=True)
         device = resolve_device(device)
-        parts = assemble(scene, device, integrator, contact, stiffness, margin, collisions, contact_step)
+        parts = assemble(scene, device, integrator, contact, stiffness, margin, collisions, contact_step, fused)
         #: the options it was made with, which a checkpoint must match
         self.settings = dict(device=device, contact=contact, penalty_stiffness=stiffness, guard=guard, max_speed=speed,
-                             contact_margin=margin, collisions=collisions, contact_step=contact_step)
+                             contact_margin=margin, collisions=collisions, contact_step=contact_step, fused=fused)
         self.scene = scene
         self.model = parts.model
         self.control = parts.control
@@ -111,9 +119,31 @@ class Simulator(Persistent):
         if self.emitters is not None:
             self.emitters.initial_births(self.state, 0.0)
         self.guard = Guard(self.model, self.dynamics.components, speed) if guard else None
+        self.fused, self._after_fused = parts.fused, parts.after_fused
+        if self.fused is not None and self.guard is not None:
+            self.fused.set_guard(*self.guard.record_of("particles"))
+        #: whether the fused step checks the particles for the guard (nothing runs after it)
+        self._guard_folded = self.fused is not None and self.fused.checks and not self._after_fused
+        self._load_kernels()
         self.time = 0.0
         self.step_count = 0
         self.output = None
+
+    def kernel_modules(self) -> list[str]:
+        """The kernel modules (names in warp_sim.kernels) the parts that run this simulation launch, sorted."""
+        if self.fused is None:
+            parts = [self.integrator, *self.dynamics.components, *self.passes]
+        else:
+            parts = [self.fused, *self._after_fused]
+        parts += [*self.dynamics.force_terms, *([self.guard] if self.guard is not None and not self._guard_folded
+                                                else [])]
+        return sorted({name for part in parts for name in part.kernels})
+
+    def _load_kernels(self) -> None:
+        """Compile (or load from Warp's cache) every kernel module the simulation launches, in parallel on all
+        cores: a cold start compiles them side by side instead of one by one at their first launches."""
+        modules = [wp.get_module(f"{kernels.__name__}.{name}") for name in self.kernel_modules()]
+        wp.force_load(self.model.device, modules=modules, max_workers=os.cpu_count() or 1)
 
     @property
     def device(self):
@@ -199,15 +229,22 @@ class Simulator(Persistent):
             for step_pass in self.passes:
                 step_pass.check_step(piece)
             start, end = self.state, self._next
-            self.integrator.step(start, end, self.time, piece)
-            for step_pass in self.passes:
+            if self.fused is None:
+                self.integrator.step(start, end, self.time, piece)
+                after = self.passes
+            else:   # the guard's check folded into the last piece, where nothing runs after it
+                check = self.step_count + 1 if self._guard_folded and k == pieces - 1 else 0
+                self.fused.step(start, end, self.time, piece, check)
+                after = self._after_fused
+            for step_pass in after:
                 step_pass.apply(start, end, self.time, piece)
             self.state, self._next = end, start
             self.time = start_time + piece * (k + 1)
         self.time = start_time + h
         self.step_count += 1
         if self.guard is not None:
-            self.guard.record(self.state, self.step_count, self.time)
+            folded = ("particles",) if self._guard_folded else ()
+            self.guard.record(self.state, self.step_count, self.time, folded)
 
     def frame_arrays(self) -> dict:
         """The current state's arrays a frame holds, as numpy copies (they stay as they are when the simulation

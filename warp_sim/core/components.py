@@ -25,6 +25,7 @@ class Particles(Component):
     """
 
     name = "particles"
+    kernels = ("particles", "integrate")
 
     def __init__(self, model: Model, forces: Forces):
         self.model = model
@@ -69,6 +70,7 @@ class RigidBodies(Component):
     """
 
     name = "bodies"
+    kernels = ("rigid", "integrate")
     position_rates_need_positions = True     # omega depends on the orientation
     guard_reasons = {0: "non-finite position or orientation", 1: "non-finite momentum",
                      2: "speed above max_speed"}

@@ -44,11 +44,15 @@ class Dynamics:
             component.set_initial(state, scene)
         return state
 
-    def velocity_derivative(self, state: State, t: float, out: State) -> None:
-        """Accumulate forces at ``state`` and write the velocity-block rates into ``out``."""
+    def accumulate_forces(self, state: State, t: float) -> None:
+        """Clear the force accumulators and add every force term's forces at (t, ``state``)."""
         self.forces.clear()
         for term in self.force_terms:
             term.apply(state, t, self.forces)
+
+    def velocity_derivative(self, state: State, t: float, out: State) -> None:
+        """Accumulate forces at ``state`` and write the velocity-block rates into ``out``."""
+        self.accumulate_forces(state, t)
         for component in self.components:
             component.velocity_derivative(state, t, out)
 

@@ -37,6 +37,8 @@ class SimulationDiverged(RuntimeError):
 class Guard:
     """Per-component device records of the first bad step, with the host-side check."""
 
+    kernels = ("guards",)
+
     def __init__(self, model, components, max_speed: float):
         self.components = list(components)
         self.max_speed = max_speed
@@ -50,14 +52,20 @@ class Guard:
 
     max_unchecked_steps = 1 << 20
 
-    def record(self, state, step: int, time: float) -> None:
-        """Launch the checks for the state after ``step`` (ending at ``time``); no sync."""
+    def record(self, state, step: int, time: float, folded=()) -> None:
+        """Launch the checks for the state after ``step`` (ending at ``time``); no sync. ``folded``: the names of
+        the components whose check a fused step made already (solvers.fused)."""
         if len(self.step_times) >= self.max_unchecked_steps:   # never checked: keep memory bounded
             self.step_times.clear()
         self.step_times[step] = time
         for component, record in zip(self.components, self.records):
-            kernel, count, inputs = component.guard_inputs(state)
-            self.launch(kernel, count, [*inputs, self._max_speed, step, record])
+            if component.name not in folded:
+                kernel, count, inputs = component.guard_inputs(state)
+                self.launch(kernel, count, [*inputs, self._max_speed, step, record])
+
+    def record_of(self, name: str):
+        """The device record (kernels.guards.GuardRecord) of the component named ``name``, and the bound."""
+        return self.records[[c.name for c in self.components].index(name)], self._max_speed
 
     def raise_if_diverged(self, state) -> None:
         """Read the records (a device sync) and raise SimulationDiverged for the earliest bad step."""

@@ -24,9 +24,11 @@ class Component:
     fields: its StateFields
     position_rates_need_positions: whether its position-block rates read positions too (not only velocities)
     guard_reasons: the divergence guard's reason codes (see kernels.guards) in its words
+    kernels: the kernel modules (names in warp_sim.kernels) it launches, compiled together when a Simulator starts
     """
 
     name = "component"
+    kernels: tuple[str, ...] = ()
     fields: list[StateField] = []
     position_rates_need_positions = False
     guard_reasons = {0: "non-finite position", 1: "non-finite velocity", 2: "speed above max_speed"}
@@ -65,9 +67,11 @@ class ForceTerm:
     """Something that adds forces into the accumulators, given a state.
 
     targets: the components whose accumulators it writes ("particles", "bodies")
+    kernels: the kernel modules (names in warp_sim.kernels) it launches
     """
 
     targets = frozenset({"particles"})
+    kernels: tuple[str, ...] = ()
 
     def apply(self, state: State, t: float, forces: "Forces") -> None:
         raise NotImplementedError
@@ -81,9 +85,11 @@ class Pass(Persistent):
     max_step: the longest step the pass is accurate at [s] (None: any); the simulator splits a longer step
     into equal sub-steps, solver and passes each, inside ``step()``
     persistent: what it carries from one step to the next, for checkpoints (core.persistence; none by default)
+    kernels: the kernel modules (names in warp_sim.kernels) it launches
     """
 
     max_step: float | None = None
+    kernels: tuple[str, ...] = ()
 
     def check_step(self, h: float) -> None:
         """Refuse a step of h seconds this pass cannot handle (ValueError); by default accept any."""

@@ -49,6 +49,8 @@ class AeroForces(ForceTerm):
     not (T, 3) particle indices.
     """
 
+    kernels = ("cloth",)
+
     targets = frozenset({"particles"})
 
     def __init__(self, model: Model, meshes: list):

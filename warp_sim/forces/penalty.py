@@ -12,6 +12,8 @@ from ..kernels import penalty as penalty_kernels
 class PlanePenalty(ForceTerm):
     """Particles inside planes pushed out: stiffness [N/m], the damper of kernels.penalty.penalty_damping."""
 
+    kernels = ("penalty",)
+
     def __init__(self, model: Model, stiffness: float):
         self.model = model
         self.stiffness = model.scalar(stiffness)
@@ -31,6 +33,7 @@ class BodyPenalty(ForceTerm):
     """
 
     targets = frozenset({"bodies"})
+    kernels = ("penalty", "detection")
 
     def __init__(self, model: Model, stiffness: float, detection: Detection):
         self.model = model

@@ -10,6 +10,8 @@ from ..kernels import springs as spring_kernels
 class Springs(ForceTerm):
     """f2 = (-ks (L - L0) - kd (v2 - v1) . d) d, f1 = -f2 on every spring of the model (one launch)."""
 
+    kernels = ("springs",)
+
     def __init__(self, model: Model):
         self.model = model
 

@@ -35,6 +35,26 @@ def record_first_bad(step: int, key: int, record: GuardRecord):
     wp.atomic_min(record.first_key, 0, key)
 
 
+@wp.func
+def check_element(i: int, xi: Any, vi: Any, max_speed: Any, step: int, record: GuardRecord):
+    """check_finite_and_bounded for element i of position xi [m] and velocity vi [m/s] (the fused step calls it)."""
+    if record.first_step[0] < step:
+        return
+    speed_squared = wp.dot(vi, vi)
+    # one finiteness test on a sum: any NaN or infinity in x or v makes it non-finite
+    total = xi[0] + xi[1] + xi[2] + speed_squared
+    if wp.isfinite(total) and speed_squared <= max_speed * max_speed:
+        return
+    reason = REASON_SPEED
+    if wp.isfinite(xi) and wp.isfinite(vi) and speed_squared <= max_speed * max_speed:
+        return  # finite values whose sum overflowed: nothing wrong
+    if not wp.isfinite(xi):
+        reason = REASON_POSITION
+    elif not wp.isfinite(vi):
+        reason = REASON_VELOCITY
+    record_first_bad(step, 4 * i + reason, record)
+
+
 @wp.kernel
 def check_finite_and_bounded(x: wp.array(dtype=Any), v: wp.array(dtype=Any), max_speed: Any, step: int,
                              record: GuardRecord):
@@ -55,23 +75,7 @@ def check_finite_and_bounded(x: wp.array(dtype=Any), v: wp.array(dtype=Any), max
         record: the first bad step and its lowest bad element's key (GuardRecord) [1]
     """
     i = wp.tid()
-    if record.first_step[0] < step:
-        return
-    xi = x[i]
-    vi = v[i]
-    speed_squared = wp.dot(vi, vi)
-    # one finiteness test on a sum: any NaN or infinity in x or v makes it non-finite
-    total = xi[0] + xi[1] + xi[2] + speed_squared
-    if wp.isfinite(total) and speed_squared <= max_speed * max_speed:
-        return
-    reason = REASON_SPEED
-    if wp.isfinite(xi) and wp.isfinite(vi) and speed_squared <= max_speed * max_speed:
-        return  # finite values whose sum overflowed: nothing wrong
-    if not wp.isfinite(xi):
-        reason = REASON_POSITION
-    elif not wp.isfinite(vi):
-        reason = REASON_VELOCITY
-    record_first_bad(step, 4 * i + reason, record)
+    check_element(i, x[i], v[i], max_speed, step, record)
 
 
 @wp.kernel

@@ -1,6 +1,7 @@
 """The particle derivative: accelerations from gravity, linear drag, wind and accumulated forces.
 
-Public (``__all__``): particle_acceleration, the module's only kernel.
+Public (``__all__``): particle_acceleration, the module's only kernel. ``acceleration`` is its function, which the
+fused step (kernels.fused) calls too.
 """
 from typing import Any
 
@@ -11,6 +12,20 @@ from .precisions import register
 __all__ = ["particle_acceleration"]
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
+
+@wp.func
+def acceleration(v: Any, force: wp.array(dtype=Any), inv_mass: wp.array(dtype=Any), i: int, gravity: Any, drag: Any,
+                 wind: Any):
+    """g + (f[i] + drag (wind - v)) / m[i] [m/s^2] for particle i of velocity v [m/s]; zero when pinned."""
+    w = inv_mass[i]
+    acc = type(gravity)()
+    if w > type(drag)(0.0):
+        f = drag * (wind - v)
+        if force.shape[0] > 0:
+            f = f + force[i]
+        acc = gravity + f * w
+    return acc
 
 
 @wp.kernel
@@ -37,14 +52,7 @@ def particle_acceleration(
         dv: the accelerations, written (vec3) [m/s^2]
     """
     i = wp.tid()
-    w = inv_mass[i]
-    acc = type(gravity)()
-    if w > type(drag)(0.0):
-        f = drag * (wind - v[i])
-        if force.shape[0] > 0:
-            f = f + force[i]
-        acc = gravity + f * w
-    dv[i] = acc
+    dv[i] = acceleration(v[i], force, inv_mass, i, gravity, drag, wind)
 
 
 register(globals())

@@ -87,52 +87,18 @@ def coulomb_friction(vt: Any, max_change: Any):
     return out
 
 
-@wp.kernel
-def resolve_plane_impacts(
-    x_start: wp.array(dtype=Any),
-    v_start: wp.array(dtype=Any),
-    x: wp.array(dtype=Any),
-    v: wp.array(dtype=Any),
-    material: Any,
-    planes: Any,
-    h: Any,
-    touched_out: wp.array(dtype=wp.int32),
-):
-    """Detect plane crossings over a step of h seconds and respond at the time of impact.
-
-    Over the step the particle moves from (x_start, v_start) with the constant
-    acceleration a = (v - v_start) / h, which is exact for uniform gravity. The
-    earliest crossing is found by solving the quadratic in time; the particle is put
-    there, its normal velocity reflected, v' = v - (1 + e)(v . n) n, its tangential
-    velocity reduced by Coulomb friction (mu times the normal impulse, never
-    reversing), and it travels the rest of the step, repeatedly. A particle pressed
-    onto a plane with no approach speed is in resting contact: the plane takes up
-    the normal acceleration and friction acts with the impulse that supports it.
-    No energy is added, and no particle ends the step inside a plane. x and v
-    (the integrator's end of step) are updated in place; pinned particles are skipped.
-    Launch with dim = the number of particles, after the step from (x_start, v_start).
-
-    Args:
-        x_start: positions at the start of the step (vec3) [m]
-        v_start: velocities at the start of the step (vec3) [m/s]
-        x: positions at the end of the step, corrected in place (vec3) [m]
-        v: velocities at the end of the step, corrected in place (vec3) [m/s]
-        material: inverse masses (0: pinned, skipped), radii, own restitution and friction (ParticleMaterial) [1/kg]
-        planes: unit normals n_k to the allowed side, offsets n_k . x = offset_k, restitution, friction (Planes) [m]
-        h: the step [s]
-        touched_out: set to 1 for each particle that touched a plane in the step, or an empty array [1]
-    """
-    i = wp.tid()
-    if material.inv_mass[i] == type(h)(0.0):
-        return
+@wp.func
+def plane_response(i: int, x_start: Any, v_start: Any, x: Any, v: Any, material: Any, planes: Any, h: Any):
+    """resolve_plane_impacts for free particle i moving over h [s] from (x_start [m], v_start [m/s]) to (x, v):
+    the corrected (x, v) and 1 if it touched a plane, else 0 (the fused step calls it)."""
     zero = type(h)(0.0)
     half = type(h)(0.5)
     r = material.radius[i]
-    xs = x_start[i]
-    vs = v_start[i]
-    a = (v[i] - vs) / h
-    xe = x[i]
-    ve = v[i]
+    xs = x_start
+    vs = v_start
+    a = (v - vs) / h
+    xe = x
+    ve = v
     t = zero
     touched = int(0)
     for _event in range(MAX_EVENTS):
@@ -188,11 +154,52 @@ def resolve_plane_impacts(
             vn = wp.dot(ve, n)
             if vn < zero:
                 ve = ve - vn * n
+    return xe, ve, touched
+
+
+@wp.kernel
+def resolve_plane_impacts(
+    x_start: wp.array(dtype=Any),
+    v_start: wp.array(dtype=Any),
+    x: wp.array(dtype=Any),
+    v: wp.array(dtype=Any),
+    material: Any,
+    planes: Any,
+    h: Any,
+    touched_out: wp.array(dtype=wp.int32),
+):
+    """Detect plane crossings over a step of h seconds and respond at the time of impact.
+
+    Over the step the particle moves from (x_start, v_start) with the constant
+    acceleration a = (v - v_start) / h, which is exact for uniform gravity. The
+    earliest crossing is found by solving the quadratic in time; the particle is put
+    there, its normal velocity reflected, v' = v - (1 + e)(v . n) n, its tangential
+    velocity reduced by Coulomb friction (mu times the normal impulse, never
+    reversing), and it travels the rest of the step, repeatedly. A particle pressed
+    onto a plane with no approach speed is in resting contact: the plane takes up
+    the normal acceleration and friction acts with the impulse that supports it.
+    No energy is added, and no particle ends the step inside a plane. x and v
+    (the integrator's end of step) are updated in place; pinned particles are skipped.
+    Launch with dim = the number of particles, after the step from (x_start, v_start).
+
+    Args:
+        x_start: positions at the start of the step (vec3) [m]
+        v_start: velocities at the start of the step (vec3) [m/s]
+        x: positions at the end of the step, corrected in place (vec3) [m]
+        v: velocities at the end of the step, corrected in place (vec3) [m/s]
+        material: inverse masses (0: pinned, skipped), radii, own restitution and friction (ParticleMaterial) [1/kg]
+        planes: unit normals n_k to the allowed side, offsets n_k . x = offset_k, restitution, friction (Planes) [m]
+        h: the step [s]
+        touched_out: set to 1 for each particle that touched a plane in the step, or an empty array [1]
+    """
+    i = wp.tid()
+    if material.inv_mass[i] == type(h)(0.0):
+        return
+    xe, ve, touched = plane_response(i, x_start[i], v_start[i], x[i], v[i], material, planes, h)
     if touched != 0:
         x[i] = xe
         v[i] = ve
         if touched_out.shape[0] > 0:
             touched_out[i] = 1
-
 
 register(globals())

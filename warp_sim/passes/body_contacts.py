@@ -57,6 +57,8 @@ class BodyContacts(Pass):
         the longest at which the default sweeps hold stacks and landing piles; None: no sub-steps)
     """
 
+    kernels = ("contacts", "detection", "manifolds", "rigid")
+
     persistent = ("_capacity", "table.used", "table.keys", "table.cells", "table.n", "table.t")   # the warm start
 
     def __init__(self, model: Model, detection: Detection, position_response: float, slop: float = 1.0e-4,

@@ -27,6 +27,8 @@ class EmitterPools(Pass):
     alive (int32), ids (int64), color (RGB), opacity.
     """
 
+    kernels = ("emitters",)
+
     persistent = ("alive", "ids", "color", "opacity", "model.particle_inv_mass", "model.particle_radius")
 
     def __init__(self, model, scene):

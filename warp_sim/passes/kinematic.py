@@ -19,6 +19,8 @@ from ..kernels import rigid as rigid_kernels
 class KinematicBodies(Pass):
     """Sets the kinematic bodies' state from their tracks (see the module docstring); tracks: (body index, Track)."""
 
+    kernels = ("rigid",)
+
     def __init__(self, model: Model, scene):
         self.model = model
         self.tracks = [(index, body.track) for index, body in enumerate(scene.bodies) if body.track is not None]

@@ -20,6 +20,8 @@ class ParticleShapeContacts(Pass):
     emitter kills on contact)
     """
 
+    kernels = ("particle_shapes", "detection")
+
     def __init__(self, model: Model, geometry: ContactGeometry, detection: Detection | None):
         self.model = model
         self.geometry = geometry

@@ -20,6 +20,8 @@ class PlaneImpacts(Pass):
     touched: per-particle int32 flags set to 1 on contact (empty unless a kill-on-contact emitter asks)
     """
 
+    kernels = ("planes",)
+
     def __init__(self, model: Model):
         self.model = model
         self.touched = model.empty(wp.int32)

@@ -9,6 +9,8 @@ from ..core.state import State
 class ComponentProjection(Pass):
     """Runs every component's ``post_step`` on the end state (e.g. renormalises body orientations)."""
 
+    kernels = ("rigid",)
+
     def __init__(self, dynamics: Dynamics):
         self.dynamics = dynamics
 

@@ -84,6 +84,8 @@ class StrainLimiter(Pass):
     constraint_count: springs limited; colour_count: their colours
     """
 
+    kernels = ("cloth",)
+
     def __init__(self, model: Model, scene, max_iterations: int = 50, tolerance: float | None = None,
                  relaxation: float = 1.9):
         self.max_iterations = checks.count("max_iterations", max_iterations)

@@ -23,9 +23,11 @@ class Integrator(Persistent):
         trapezoid-like solvers, 1 for symplectic and implicit Euler, 0 for explicit Euler)
     dynamics: the Dynamics it is bound to (None before ``bind``)
     persistent: what it carries from one step to the next (a step size, a warm start, counters), for checkpoints
+    kernels: the kernel modules (names in warp_sim.kernels) it launches
     """
 
     name = ""
+    kernels: tuple[str, ...] = ("integrate",)
     order = 0
     position_response = 0.5
 

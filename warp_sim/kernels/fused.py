@@ -1,0 +1,64 @@
+"""Fused steps: one kernel for a whole step of a hot (component, solver) pair, with the generic path's functions.
+
+``symplectic_euler_particles`` is a step of semi-implicit Euler for particles (and cloth, whose springs are a force
+term accumulated before it): the acceleration of kernels.particles, the kick, the drift, the plane impulses of
+kernels.planes and the guard's check of kernels.guards, reading x and v once and writing them once. It calls the
+same Warp functions as the generic path (solver stages, then passes, then the guard), in the same order, so the
+two give the same state bit for bit (tests/solvers/test_fused.py). The rule for adding one is in
+docs/architecture.md.
+
+Private: for the simulator's own use (solvers.fused); its arguments may change between releases.
+"""
+from typing import Any
+
+import warp as wp
+
+from .guards import GuardRecord, check_element
+from .particles import acceleration
+from .planes import plane_response
+from .precisions import register
+
+__all__ = []
+
+wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
+
+
+@wp.kernel
+def symplectic_euler_particles(x: wp.array(dtype=Any), v: wp.array(dtype=Any), force: wp.array(dtype=Any),
+                               gravity: Any, drag: Any, wind: Any, material: Any, planes: Any, h: Any,
+                               impacts: int, x_out: wp.array(dtype=Any), v_out: wp.array(dtype=Any),
+                               touched_out: wp.array(dtype=wp.int32), max_speed: Any, step: int, record: GuardRecord):
+    """One semi-implicit Euler step of h seconds for particle i: v' = v + h a(v), x' = x + h v', then (impacts 1)
+    the time-of-impact plane response, then (step > 0) the guard's check of (x', v') as step ``step``.
+
+    Args:
+        x, v: positions [m] and velocities [m/s] at the start (vec3)
+        force: accumulated forces at the start, or an empty array (vec3) [N]
+        gravity [m/s^2], drag [N s/m], wind [m/s]: as kernels.particles.particle_acceleration
+        material: inverse masses (0: pinned), radii, restitution, friction (ParticleMaterial) [1/kg]
+        planes: the planes (Planes) [m]; impacts: 1 to respond to them, 0 not (penalty contacts, no planes)
+        h: the step [s]
+        x_out, v_out: the end of the step, written (vec3) [m], [m/s]
+        touched_out: set to 1 for each particle that touched a plane, or an empty array [1]
+        max_speed: the guard's bound [m/s]; step: the step number to record, or 0 for no check [1]
+        record: the particles' guard record (GuardRecord) [1]
+    """
+    i = wp.tid()
+    xi = x[i]
+    vi = v[i]
+    v1 = vi + h * acceleration(vi, force, material.inv_mass, i, gravity, drag, wind)
+    x1 = xi + h * v1
+    if impacts != 0 and material.inv_mass[i] != type(h)(0.0):
+        xe, ve, touched = plane_response(i, xi, vi, x1, v1, material, planes, h)
+        if touched != 0:
+            x1 = xe
+            v1 = ve
+            if touched_out.shape[0] > 0:
+                touched_out[i] = 1
+    x_out[i] = x1
+    v_out[i] = v1
+    if step > 0:
+        check_element(i, x1, v1, max_speed, step, record)
+
+
+register(globals(), x_out="vec3", v_out="vec3")

@@ -1,0 +1,54 @@
+"""The fused step of particles (and cloth) under semi-implicit Euler: the generic path's work in one launch.
+
+The generic path of a step is the solver's stages (forces, the particle accelerations, a kick over the velocity
+block, the position rates, a drift over the position block), then the passes (the plane impulses), then the guard:
+six launches, each reading and writing whole arrays. ``FusedParticleStep`` accumulates the force terms (springs,
+fields, aerodynamics) as the generic path does, then launches kernels.fused.symplectic_euler_particles, which
+reads x and v once and writes them once, with the same Warp functions in the same order: the states are equal
+bit for bit. assembly.fused_step says when it applies (docs/architecture.md: the rule).
+"""
+from __future__ import annotations
+
+import warp as wp
+
+from ..core.dynamics import Dynamics
+from ..kernels import blocks
+from ..kernels import fused as fused_kernels
+from ..kernels.guards import GuardRecord
+
+
+class FusedParticleStep:
+    """One launch per step for a particles-only Dynamics under symplectic_euler.
+
+    impacts: whether the plane impulses are folded in (the scene's impulse plane contacts); touched: their
+    per-particle contact flags (int32, empty unless a kill-on-contact emitter reads them); checks: whether the
+    guard's check is folded in (``set_guard``).
+    """
+
+    kernels = ("fused",)
+
+    def __init__(self, dynamics: Dynamics, impacts: bool, touched: wp.array):
+        self.dynamics = dynamics
+        model = self.model = dynamics.model
+        self.impacts = int(impacts)
+        self.touched = touched
+        self.planes = model.planes if model.planes is not None else blocks.fill(
+            model.blocks.Planes, normal=model.empty(model.vec3), offset=model.empty(), restitution=model.empty(),
+            friction=model.empty())
+        self.record = GuardRecord()
+        self.record.first_step = self.record.first_key = wp.empty(1, dtype=wp.int32, device=model.device)
+        self.max_speed = model.scalar(0.0)
+        self.checks = False
+
+    def set_guard(self, record: GuardRecord, max_speed) -> None:
+        """Fold the guard's check of the particles (its record, its bound [m/s] in the model's scalar) in."""
+        self.record, self.max_speed, self.checks = record, max_speed, True
+
+    def step(self, start, end, t: float, h: float, check: int) -> None:
+        """``end`` from ``start`` over h seconds from time t; check > 0: record the guard's check as that step."""
+        m, forces = self.model, self.dynamics.forces
+        self.dynamics.accumulate_forces(start, t)
+        m.launch(fused_kernels.symplectic_euler_particles, m.particle_count,
+                 [start.particle_x, start.particle_v, forces.particle_f, m.gravity, m.drag, m.wind,
+                  m.particle_material, self.planes, m.scalar(h), self.impacts, end.particle_x, end.particle_v,
+                  self.touched, self.max_speed, check, self.record])
