@@ -46,7 +46,11 @@ def symplectic_euler_particles(x: wp.array(dtype=Any), v: wp.array(dtype=Any), f
     i = wp.tid()
     xi = x[i]
     vi = v[i]
-    v1 = vi + h * acceleration(vi, force, material.inv_mass, i, gravity, drag, wind)
+    forced = force.shape[0] > 0
+    fi = type(gravity)()
+    if forced:
+        fi = force[i]
+    v1 = vi + h * acceleration(vi, fi, forced, material.inv_mass[i], gravity, drag, wind)
     x1 = xi + h * v1
     if impacts != 0 and material.inv_mass[i] != type(h)(0.0):
         xe, ve, touched = plane_response(i, xi, vi, x1, v1, material, planes, h)

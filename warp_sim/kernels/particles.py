@@ -15,15 +15,14 @@ wp.set_module_options({"enable_backward": False})  # forward simulation only: no
 
 
 @wp.func
-def acceleration(v: Any, force: wp.array(dtype=Any), inv_mass: wp.array(dtype=Any), i: int, gravity: Any, drag: Any,
-                 wind: Any):
-    """g + (f[i] + drag (wind - v)) / m[i] [m/s^2] for particle i of velocity v [m/s]; zero when pinned."""
-    w = inv_mass[i]
+def acceleration(v: Any, force: Any, forced: bool, w: Any, gravity: Any, drag: Any, wind: Any):
+    """g + (force + drag (wind - v)) w [m/s^2] for a particle of velocity v [m/s] and inverse mass w [1/kg] (the
+    force [N] only where ``forced``); zero when pinned (w 0)."""
     acc = type(gravity)()
     if w > type(drag)(0.0):
         f = drag * (wind - v)
-        if force.shape[0] > 0:
-            f = f + force[i]
+        if forced:
+            f = f + force
         acc = gravity + f * w
     return acc
 
@@ -52,7 +51,11 @@ def particle_acceleration(
         dv: the accelerations, written (vec3) [m/s^2]
     """
     i = wp.tid()
-    dv[i] = acceleration(v[i], force, inv_mass, i, gravity, drag, wind)
+    forced = force.shape[0] > 0
+    fi = type(gravity)()
+    if forced:
+        fi = force[i]
+    dv[i] = acceleration(v[i], fi, forced, inv_mass[i], gravity, drag, wind)
 
 
 register(globals())
