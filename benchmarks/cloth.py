@@ -172,30 +172,46 @@ class WarpSimCloth:
         return state.particle_x.numpy().astype(np.float64), state.particle_v.numpy().astype(np.float64)
 
 
-class TaichiCloth:
-    """The same step in Taichi on its CPU backend (all cores, Taichi's default). ti.init is called here: an
-    instance made earlier (another size or precision) is dead afterwards."""
+def taichi_init(ti, arch: str = "cpu", threads: int | None = None, **options) -> None:
+    """ti.init on ti.cpu (all cores, Taichi's default, or ``threads``) or ti.cuda; an earlier Taichi field or
+    kernel is dead afterwards."""
+    if threads is not None:
+        options["cpu_max_num_threads"] = threads
+    ti.init(arch=getattr(ti, arch), log_level=ti.WARN, **options)
 
-    def __init__(self, ti, scene: ws.Scene, precision: str = "float32"):
+
+class TaichiCloth:
+    """The same step in Taichi, one kernel of three parallel loops: clear the forces, the springs (atomic adds
+    onto both ends), integrate. On Taichi's CPU backend (all cores, Taichi's default, unless ``threads``) or
+    arch="cuda". ti.init is called here: an instance made earlier (another size or precision) is dead afterwards."""
+
+    style = ""
+
+    def __init__(self, ti, scene: ws.Scene, precision: str = "float32", arch: str = "cpu", threads: int | None = None):
         self.ti, self.precision = ti, precision
-        self.name = "Taichi cpu" + ("" if precision == "float32" else " float64")
+        self.name = (f"Taichi {arch}{self.style}" + (f" ({threads} thread{'s' * (threads != 1)})" if threads else "")
+                     + ("" if precision == "float32" else " float64"))
         real, self.dtype = (ti.f32, np.float32) if precision == "float32" else (ti.f64, np.float64)
-        ti.init(arch=ti.cpu, default_fp=real, log_level=ti.WARN)
+        taichi_init(ti, arch, threads, default_fp=real)
         pairs = scene.spring_array("pairs").astype(np.int32)
         mass, pinned = scene.particle_array("mass"), scene.particle_array("pinned")
         n, s = len(mass), len(pairs)
-        self.x, self.v, f, g = (ti.Vector.field(3, real, shape=n) for _ in range(4))
+        self.x, self.v, g = (ti.Vector.field(3, real, shape=n) for _ in range(3))
         w = ti.field(real, shape=n)
         ks, kd, rest = (ti.field(real, shape=s) for _ in range(3))
-        ends = ti.Vector.field(2, ti.i32, shape=s)
         h = ti.field(real, shape=())  # the step as a field, not a kernel argument: no annotation to resolve
-        ends.from_numpy(pairs)
         for field, values in ((ks, scene.spring_array("stiffness")), (kd, scene.spring_array("damping")),
                               (rest, scene.spring_array("rest_length")), (w, np.where(pinned, 0.0, 1.0 / mass)),
                               (g, np.where(pinned[:, None], 0.0, np.asarray(GRAVITY)))):
             field.from_numpy(values.astype(self.dtype))
         h[None] = DT
-        x, v = self.x, self.v
+        self.step = self._kernel(ti, real, pairs, self.x, self.v, g, w, ks, kd, rest, h)
+
+    @staticmethod
+    def _kernel(ti, real, pairs, x, v, g, w, ks, kd, rest, h):
+        f = ti.Vector.field(3, real, shape=x.shape)
+        ends = ti.Vector.field(2, ti.i32, shape=len(pairs))
+        ends.from_numpy(pairs)
 
         @ti.kernel
         def step():
@@ -214,7 +230,7 @@ class TaichiCloth:
                 v[i] += h[None] * (g[i] + f[i] * w[i])
                 x[i] += h[None] * v[i]
 
-        self.step = step
+        return step
 
     def reset(self, x: np.ndarray, v: np.ndarray) -> None:
         self.x.from_numpy(x.astype(self.dtype))
@@ -229,6 +245,48 @@ class TaichiCloth:
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
         return self.x.to_numpy().astype(np.float64), self.v.to_numpy().astype(np.float64)
+
+
+class TaichiGatherCloth(TaichiCloth):
+    """The same step gather-style: per particle, the forces of its springs summed through an adjacency list
+    (CSR: the other end and the spring of each), no atomics, the new velocity written to a second field; then a
+    second loop integrates. With d = (x_i - x_j) / L, the force on i is (-ks (L - L0) - kd (v_i - v_j).d) d from
+    either end, the same as the scatter step's."""
+
+    style = " gather"
+
+    @staticmethod
+    def _kernel(ti, real, pairs, x, v, g, w, ks, kd, rest, h):
+        n = x.shape[0]
+        ends = np.concatenate([pairs[:, 0], pairs[:, 1]])
+        order = np.argsort(ends, kind="stable")
+        start_np = np.zeros(n + 1, dtype=np.int32)
+        np.cumsum(np.bincount(ends, minlength=n), out=start_np[1:])
+        start = ti.field(ti.i32, shape=n + 1)
+        other, spring = (ti.field(ti.i32, shape=len(ends)) for _ in range(2))
+        start.from_numpy(start_np)
+        other.from_numpy(np.concatenate([pairs[:, 1], pairs[:, 0]])[order].astype(np.int32))
+        spring.from_numpy(np.concatenate([np.arange(len(pairs))] * 2)[order].astype(np.int32))
+        v_new = ti.Vector.field(3, real, shape=n)
+
+        @ti.kernel
+        def step():
+            for i in x:
+                xi, vi = x[i], v[i]
+                f = ti.Vector([0.0, 0.0, 0.0])
+                for e in range(start[i], start[i + 1]):
+                    j, k = other[e], spring[e]
+                    delta = xi - x[j]
+                    length = delta.norm()
+                    if length > 0.0:
+                        d = delta / length
+                        f += (-ks[k] * (length - rest[k]) - kd[k] * (vi - v[j]).dot(d)) * d
+                v_new[i] = vi + h[None] * (g[i] + f * w[i])
+            for i in x:
+                v[i] = v_new[i]
+                x[i] += h[None] * v_new[i]
+
+        return step
 
 
 class NewtonCloth:

@@ -53,6 +53,7 @@ from rigid import KERNEL_LABELS as SOLVER_KERNELS
 
 import warp_sim as ws
 from warp_sim.studies import contact_scenes
+from warp_sim.util.rotations import quat_to_matrix
 
 DT = 1.0 / 240.0  # [s]
 SIZE_RANGE = contact_scenes.PILE_SIZES  # [m], box half extents (per axis) and sphere radii
@@ -86,12 +87,22 @@ def build_scene(parameters: dict) -> ws.Scene:
     return contact_scenes.pile(parameters)
 
 
+def body_arrays(sim: ws.Simulator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(centres, rotations, linear velocities) of warp_sim's bodies now, as numpy arrays."""
+    return sim.state.body_x.numpy(), sim.body_rotations().numpy(), sim.body_velocities()[0].numpy()
+
+
 def pile_state(sim: ws.Simulator, parameters: dict) -> dict:
-    """The pile now: highest speed [m/s], lowest body point (ground penetration when negative) [m], bodies whose
-    centre is below the ground, the highest centre, and the bodies' spread from the axis (x, z) [m]."""
-    x = sim.state.body_x.numpy().astype(np.float64)
-    v = sim.body_velocities()[0].numpy().astype(np.float64)
-    lowest = contact_scenes.lowest_points(x, sim.body_rotations().numpy().astype(np.float64), parameters)
+    """The pile now (pile_summary) in warp_sim."""
+    return pile_summary(*body_arrays(sim), parameters)
+
+
+def pile_summary(x: np.ndarray, R: np.ndarray, v: np.ndarray, parameters: dict) -> dict:
+    """The pile from its bodies' centres x, rotations R (body to world) and velocities v, in any simulator: highest
+    speed [m/s], lowest body point (ground penetration when negative) [m], bodies whose centre is below the ground,
+    the highest centre, and the bodies' spread from the axis (x, z) [m]."""
+    x, R, v = (np.asarray(a, dtype=np.float64) for a in (x, R, v))
+    lowest = contact_scenes.lowest_points(x, R, parameters)
     finite = bool(np.isfinite(x).all() and np.isfinite(v).all())
     return {"finite": finite, "max_speed": float(np.linalg.norm(v, axis=1).max()),
             "lowest_point": float(lowest.min()), "centres_below_ground": int(np.count_nonzero(x[:, 1] < 0.0)),
@@ -100,10 +111,11 @@ def pile_state(sim: ws.Simulator, parameters: dict) -> dict:
 
 class NewtonPile:
     """The same pile in Newton: one body per shape (y up, the same gravity), a ground plane, the same density,
-    restitution and friction; SolverSemiImplicit, collision detection every step (CollisionPipeline where Newton
-    has one, with the sweep-and-prune broad phase where it takes one; else model.collide)."""
+    restitution and friction (Newton's default contact stiffness); SolverSemiImplicit (or solver="xpbd":
+    SolverXPBD with ``iterations``), collision detection every step (CollisionPipeline where Newton has one, with
+    the sweep-and-prune broad phase where it takes one; else model.collide)."""
 
-    def __init__(self, newton, parameters: dict, device):
+    def __init__(self, newton, parameters: dict, device, solver: str = "semi_implicit", iterations: int = 5):
         builder = newton.ModelBuilder(up_axis=newton.Axis.Y, gravity=(0.0, -9.81, 0.0))   # Newton 1.8: a 3-vector
         config = newton.ModelBuilder.ShapeConfig(density=DENSITY, mu=FRICTION, restitution=RESTITUTION)
         builder.add_ground_plane(cfg=config)
@@ -116,8 +128,11 @@ class NewtonPile:
             else:
                 builder.add_shape_sphere(body, radius=size[0], cfg=config)
         self.model = builder.finalize(device=device.alias)
-        solver = getattr(newton.solvers, "SolverSemiImplicit", None) or newton.solvers.SemiImplicitSolver
-        self.solver = solver(self.model)
+        if solver == "xpbd":
+            self.solver = newton.solvers.SolverXPBD(self.model, iterations=iterations)
+        else:
+            solver = getattr(newton.solvers, "SolverSemiImplicit", None) or newton.solvers.SemiImplicitSolver
+            self.solver = solver(self.model)
         self.states = [self.model.state(), self.model.state()]
         self.control = self.model.control()
         pipeline = getattr(newton, "CollisionPipeline", None)
@@ -143,15 +158,24 @@ class NewtonPile:
             self.states.reverse()
 
     def timed(self, steps: int, dt: float) -> float:
-        wp.synchronize_device(self.model.device)
+        self.sync()
         start = time.perf_counter()
         self.advance(steps, dt)
-        wp.synchronize_device(self.model.device)
+        self.sync()
         return time.perf_counter() - start
+
+    def sync(self) -> None:
+        wp.synchronize_device(self.model.device)
 
     def finite(self) -> bool:
         state = self.states[0]
         return bool(np.isfinite(state.body_q.numpy()).all() and np.isfinite(state.body_qd.numpy()).all())
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(centres, rotations, linear velocities) of the bodies now: body_q is (p, q xyzw), body_qd (v, omega)."""
+        state = self.states[0]
+        q, qd = state.body_q.numpy().astype(np.float64), state.body_qd.numpy().astype(np.float64)
+        return q[:, :3], quat_to_matrix(q[:, 3:7]), qd[:, :3]
 
 
 def bench_newton(newton, parameters: dict, device, args, settle_steps: int) -> dict:

@@ -3,8 +3,9 @@
     python benchmarks/startup.py [--repeats 3] [--seconds 0.5] [--out benchmarks/results/startup.json]
 
 Each run is a fresh process that times, one after the other: ``import warp_sim``; building the demo scene;
-``Simulator(...)`` (the Model, the parts, the initial state); the first ``sim.step`` of a frame (the kernels loaded
-from the cache, or compiled); the rest of ``--seconds`` of frames to USD. "cold" runs with an empty kernel
+``Simulator(...)`` (the Model, the parts, the initial state, and every kernel module the simulation launches
+loaded from the cache or compiled, in parallel on all cores); the first ``sim.step`` of a frame; the rest of
+``--seconds`` of frames to USD. "cold" runs with an empty kernel
 cache (a fresh ``WARP_CACHE_PATH``, so every module it launches is compiled), "warm" with the cache the cold run
 filled. The median of ``--repeats`` runs is shown. Nothing is asserted about times.
 """

@@ -1,0 +1,679 @@
+"""Side by side: warp_sim and every installed peer on the same four workloads, checked, then timed; one table.
+
+    python benchmarks/compare.py [--device cpu|cuda] [--quick] [--workloads cloth particles pile bigpile]
+                                 [--only warp_sim newton ...] [--pile-dt 1/500] [--budget S] [--timeout S]
+                                 [--out benchmarks/results/compare.json]
+
+Workloads (full sizes by default; --quick: smaller sizes and fewer steps, a couple of minutes in all):
+  cloth      benchmarks/cloth.py's cloth (structural, shear and bend springs, gravity, two pinned corners,
+             symplectic Euler at dt = 5e-6 s, float32), 32^2, 64^2, 128^2: warp_sim (guard off, the same work as
+             the others; and guard on), Newton SolverSemiImplicit, a gather-style Taichi kernel on one CPU thread;
+             MuJoCo: n/a (no mass-spring cloth).
+  particles  benchmarks/particles.py's "box" scene (10^5 and 10^6 particles falling onto the ground, impulse
+             contact, dt = 1/480 s), warp_sim with its guard on, against the copy-bandwidth floor measured in this
+             run (x and v read and written once a step); Newton SolverSemiImplicit (penalty particle-ground
+             contact), a Taichi kernel on one CPU thread (plane contact by impulse).
+  pile       benchmarks/collision.py's pile of 100 bodies (boxes and spheres) on the ground at dt = 1/500 s: the
+             step of Newton's own rigid-body examples and MuJoCo's default timestep, the same for every
+             implementation: warp_sim (guard on), Newton SolverSemiImplicit and SolverXPBD (5 iterations, as in
+             Newton's examples), MuJoCo (C, one thread) and MuJoCo-Warp on the same MJCF of the pile.
+  bigpile    the same pile with 10^4 bodies, each run capped by --budget seconds (then "n/a (...)").
+
+Each implementation-workload runs in a subprocess of its own (a crash, a Taichi init or a compile there cannot
+touch another's numbers; a crash is reported as "failed: <its last line>"). In it, every implementation is first
+CHECKED, before it is timed, and the check is printed next to its speed:
+  cloth      the one-step acceleration of a free particle (gravity) and of the two ends of a stretched, moving,
+             damped spring against the closed form (tolerances CLOSED_FORM_TOLERANCES), and the cloth's one step
+             and CHECK_STEPS steps against benchmarks/cloth.py's numpy float64 step (cloth.TOLERANCES["float32"]);
+  particles  the first step's acceleration of every particle in free flight (above FREE_HEIGHT) against the
+             closed form of that implementation's model, and the deepest penetration into the ground after each
+             timed round;
+  piles      the deepest point of any body below the ground over the settle (sampled every SAMPLE_STEPS steps) and
+             the timed steps, the highest speed after the settle (has the pile come to rest?) and the energy bound
+             (no body faster than a fall from the top of the pile allows).
+A ground check passes at no more than MAX_DEPTH (1 mm) deep: a softer contact's sinking is reported as a failure,
+not rewarded by its speed. Nothing about times is asserted. Results: one markdown table and --out (JSON). See
+benchmarks/README.md.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.metadata
+import importlib.util
+import json
+import math
+import os
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import cloth
+import collision
+import numpy as np
+import particles
+import warp as wp
+from common import device_name, floor_bandwidth, markdown, pick_device
+
+import warp_sim as ws
+
+#: peer key -> (module, distribution)
+PEERS = {"newton": ("newton", "newton"), "taichi": ("taichi", "taichi"), "mujoco": ("mujoco", "mujoco"),
+         "mujoco_warp": ("mujoco_warp", "mujoco-warp")}
+WORKLOADS = ("cloth", "particles", "pile", "bigpile")
+PILE_DT = 1.0 / 500.0  # [s] Newton's rigid examples (100 fps, 5 substeps) and MuJoCo's default timestep
+MAX_DEPTH = 1.0e-3     # [m] deepest a body or particle may be in the ground for a check to pass
+FREE_HEIGHT = 0.5      # [m] particles above this at the start are in free flight for the first step
+FREE_TOLERANCE = 1.0e-2  # [m/s^2] the particles' one-step free-flight acceleration error (float32 rounding ~2e-4)
+SAMPLE_STEPS = 10      # pile: steps between two looks at its deepest point during the settle
+WARMUP_STEPS = 3
+MJW_DENSE_LIMIT = 2**31  # [bytes] MuJoCo-Warp's dense Hessian (4 nv^2 B) above which it is not tried on the CPU
+#                          (on CUDA: half the device's memory)
+PARTICLE_GROUND = (0.5, 0.4)  # particles.make_scene's ground: restitution, friction
+#: the closed-form check of a cloth step: the free particle's |da| [m/s^2], the spring ends' |da| / |a|
+CLOSED_FORM_TOLERANCES = {"free": 1.0e-3, "spring": 1.0e-4}
+#: the closed-form scene: a free particle, and a spring of SPRING["stiffness"] N/m, SPRING["damping"] N s/m and rest
+#: length SPRING["rest"] m stretched to SPRING["length"] m, its far end moving away at SPRING["speed"] m/s
+SPRING = {"mass": 0.01, "stiffness": 1.0e4, "damping": 100.0, "rest": 0.1, "length": 0.11, "speed": 0.2}
+
+#: per workload and mode: sizes and steps (cloth, particles: timed rounds of `steps`, median of `repeats`; piles:
+#: `settle` seconds untimed, then one timed round of `steps`)
+SETTINGS = {
+    "full": {"cloth": {"sizes": [32, 64, 128], "steps": 200, "repeats": 5},
+             "particles": {"sizes": [100_000, 1_000_000], "steps": 100, "repeats": 5},
+             "pile": {"sizes": [100], "settle": 2.0, "steps": 500},
+             "bigpile": {"sizes": [10_000], "settle": 2.0, "steps": 20}},
+    "quick": {"cloth": {"sizes": [32, 64], "steps": 50, "repeats": 3},
+              "particles": {"sizes": [10_000, 100_000], "steps": 20, "repeats": 3},
+              "pile": {"sizes": [100], "settle": 0.4, "steps": 50},
+              "bigpile": {"sizes": [500], "settle": 0.5, "steps": 10}},
+}
+BUDGET = {"full": 900.0, "quick": 60.0}     # [s] one pile run (settle + timed), else "n/a"
+TIMEOUT = {"full": 3600.0, "quick": 300.0}  # [s] one subprocess (an implementation-workload)
+
+NOT_MUJOCO_CLOTH = ("n/a (MuJoCo has no mass-spring cloth: its flex is a triangulated mesh with edge constraints "
+                    "and plate/shell elasticity, not structural/shear/bend springs)")
+NOT_MUJOCO_PARTICLES = "n/a (MuJoCo has no particle system: 10^5 free bodies are the pile workloads, not this one)"
+NOT_TAICHI_PILE = "n/a (Taichi is a kernel language with no rigid-body contact solver; none is written here)"
+
+
+def implementations(workload: str, device) -> list[dict]:
+    """The rows of a workload, in table order: key, label, the peer it needs (None: warp_sim), why not (n/a)."""
+    taichi = f"Taichi {'cuda' if device.is_cuda else 'cpu, 1 thread'}"
+    rows = {
+        "cloth": [("warp_sim", "warp_sim (guard off)", None), ("warp_sim_guard", "warp_sim (guard on)", None),
+                  ("newton", "Newton SemiImplicit", "newton"), ("taichi", f"{taichi}, gather", "taichi"),
+                  ("mujoco", "MuJoCo", "mujoco", NOT_MUJOCO_CLOTH)],
+        "particles": [("warp_sim", "warp_sim (guard on)", None),
+                      ("newton", "Newton SemiImplicit (penalty ground, no drag)", "newton"),
+                      ("taichi", f"{taichi}, impulse ground", "taichi"),
+                      ("mujoco", "MuJoCo", "mujoco", NOT_MUJOCO_PARTICLES)],
+        "pile": [("warp_sim", "warp_sim (guard on)", None), ("newton", "Newton SemiImplicit", "newton"),
+                 ("newton_xpbd", "Newton XPBD (5 iterations)", "newton"),
+                 ("mujoco", "MuJoCo C (cpu, 1 thread)", "mujoco"), ("mujoco_warp", "MuJoCo-Warp", "mujoco_warp"),
+                 ("taichi", "Taichi", "taichi", NOT_TAICHI_PILE)],
+    }[workload if workload != "bigpile" else "pile"]
+    return [{"key": r[0], "label": r[1], "peer": r[2], "na": r[3] if len(r) > 3 else None} for r in rows]
+
+
+def peer_status() -> dict:
+    """Per peer: installed (found, not imported: a Taichi or MuJoCo import stays in the subprocesses), version."""
+    status = {}
+    for key, (module, distribution) in PEERS.items():
+        found = importlib.util.find_spec(module) is not None
+        try:
+            version = importlib.metadata.version(distribution) if found else None
+        except importlib.metadata.PackageNotFoundError:
+            version = "?"
+        status[key] = {"installed": found, "version": version}
+    return status
+
+
+class OverBudget(Exception):
+    """A run that would take too long (or too much memory): its row says "n/a (...)", the message."""
+
+
+# ---------------------------------------------------------------------------------------------------- adapters
+# Every implementation below has advance(steps, dt), sync() and arrays(): numpy (x, v) for particles, (x, R, v) for
+# bodies. The cloth implementations are benchmarks/cloth.py's (advance(steps) at cloth.DT, reset, read).
+
+class WarpSimRun:
+    """A warp_sim Simulator: sim.step(dt, steps) is one call (the guard read once at its end, as common.time_steps)."""
+
+    def __init__(self, sim: ws.Simulator):
+        self.sim = sim
+
+    def advance(self, steps: int, dt: float) -> None:
+        self.sim.step(dt, steps=steps)
+
+    def sync(self) -> None:
+        wp.synchronize_device(self.sim.device)
+
+    def arrays(self):
+        if self.sim.model.body_count:
+            return collision.body_arrays(self.sim)
+        return self.sim.state.particle_x.numpy(), self.sim.state.particle_v.numpy()
+
+
+class NewtonParticles:
+    """The particle scene in Newton: the same positions, velocities, masses and radii, y up, a ground plane
+    (friction 0.4), SolverSemiImplicit: penalty contact of each particle with the ground from CollisionPipeline's
+    soft contacts (one per particle), no particle-particle contact (model.particle_grid = None), no drag (Newton's
+    particles have none)."""
+
+    def __init__(self, newton, scene: ws.Scene, device):
+        builder = newton.ModelBuilder(up_axis=newton.Axis.Y, gravity=(0.0, -9.81, 0.0))
+        builder.add_ground_plane(cfg=newton.ModelBuilder.ShapeConfig(mu=0.4))
+        builder.add_particles(scene.particle_array("position").tolist(), scene.particle_array("velocity").tolist(),
+                              scene.particle_array("mass").tolist(), scene.particle_array("radius").tolist())
+        self.model = builder.finalize(device=device.alias)
+        self.model.particle_grid = None
+        self.solver = newton.solvers.SolverSemiImplicit(self.model)
+        self.states = [self.model.state(), self.model.state()]
+        self.control = self.model.control()
+        self.pipeline = newton.CollisionPipeline(self.model, soft_contact_max=self.model.particle_count)
+        self.contacts = self.pipeline.contacts()
+
+    def advance(self, steps: int, dt: float) -> None:
+        for _ in range(steps):
+            state_in, state_out = self.states
+            state_in.clear_forces()
+            self.pipeline.collide(state_in, self.contacts)
+            self.solver.step(state_in, state_out, self.control, self.contacts, dt)
+            self.states.reverse()
+
+    def sync(self) -> None:
+        wp.synchronize_device(self.model.device)
+
+    def arrays(self):
+        return self.states[0].particle_q.numpy(), self.states[0].particle_qd.numpy()
+
+
+class TaichiParticles:
+    """The particle step in one Taichi kernel (float32): v += h (g - drag v / m); x += h v; then the ground: a
+    particle below its radius is put back on it and, moving down, bounces with the ground's restitution, its
+    tangential velocity reduced by friction x the normal impulse (Coulomb), not below zero."""
+
+    def __init__(self, ti, scene: ws.Scene, dt: float, arch: str = "cpu", threads: int | None = 1):
+        cloth.taichi_init(ti, arch, threads, default_fp=ti.f32)
+        self.ti = ti
+        n = scene.particle_count
+        self.x, self.v = ti.Vector.field(3, ti.f32, shape=n), ti.Vector.field(3, ti.f32, shape=n)
+        w, r = ti.field(ti.f32, shape=n), ti.field(ti.f32, shape=n)
+        self.x.from_numpy(scene.particle_array("position").astype(np.float32))
+        self.v.from_numpy(scene.particle_array("velocity").astype(np.float32))
+        w.from_numpy((1.0 / scene.particle_array("mass")).astype(np.float32))
+        r.from_numpy(scene.particle_array("radius").astype(np.float32))
+        g, drag, h = ti.Vector(list(scene.gravity)), float(scene.drag), float(dt)
+        restitution, friction = PARTICLE_GROUND
+        x, v = self.x, self.v
+
+        @ti.kernel
+        def step():
+            for i in x:
+                vi = v[i] + h * (g - drag * v[i] * w[i])
+                xi = x[i] + h * vi
+                if xi[1] < r[i]:
+                    xi[1] = r[i]
+                    vn = vi[1]
+                    if vn < 0.0:
+                        impulse = -(1.0 + restitution) * vn
+                        vi[1] = -restitution * vn
+                        tangential = ti.sqrt(vi[0] * vi[0] + vi[2] * vi[2])
+                        if tangential > 0.0:
+                            scale = ti.max(0.0, tangential - friction * impulse) / tangential
+                            vi[0] *= scale
+                            vi[2] *= scale
+                x[i] = xi
+                v[i] = vi
+
+        self.step = step
+
+    def advance(self, steps: int, dt: float) -> None:
+        for _ in range(steps):
+            self.step()
+
+    def sync(self) -> None:
+        self.ti.sync()
+
+    def arrays(self):
+        return self.x.to_numpy(), self.v.to_numpy()
+
+
+
+def pile_mjcf(parameters: dict, dt: float) -> str:
+    """The pile as MJCF: y up (gravity -y, the plane's normal +y), one free body per pile body with its box or
+    sphere geom, density, friction (MuJoCo's default torsional and rolling coefficients); MuJoCo's defaults else
+    (soft contacts, solref 0.02 s: it has no restitution coefficient)."""
+    geoms = []
+    for i, (kind, size, position, q) in enumerate(zip(parameters["kind"].tolist(), parameters["size"].tolist(),
+                                                      parameters["position"].tolist(),
+                                                      parameters["orientation"].tolist(), strict=True)):
+        shape = (f'type="box" size="{size[0]!r} {size[1]!r} {size[2]!r}"' if kind == "box"
+                 else f'type="sphere" size="{size[0]!r}"')
+        geoms.append(f'<body name="b{i}" pos="{position[0]!r} {position[1]!r} {position[2]!r}" '
+                     f'quat="{q[3]!r} {q[0]!r} {q[1]!r} {q[2]!r}"><freejoint/><geom {shape}/></body>')
+    n = len(geoms)
+    return (f'<mujoco model="pile"><option timestep="{dt!r}" gravity="0 -9.81 0"/>'
+            f'<size memory="{max(64, n // 4)}M"/>'
+            f'<default><geom density="{collision.DENSITY!r}" friction="{collision.FRICTION!r} 0.005 0.0001"/>'
+            f'</default><worldbody><geom name="ground" type="plane" size="0 0 1" zaxis="0 1 0"/>'
+            + "".join(geoms) + "</worldbody></mujoco>")
+
+
+class MujocoPile:
+    """MuJoCo (C, one thread) on pile_mjcf: mj_step(nstep=steps)."""
+
+    def __init__(self, mujoco, parameters: dict, dt: float):
+        self.mujoco = mujoco
+        self.model = mujoco.MjModel.from_xml_string(pile_mjcf(parameters, dt))
+        self.data = mujoco.MjData(self.model)
+
+    def advance(self, steps: int, dt: float) -> None:
+        self.mujoco.mj_step(self.model, self.data, nstep=steps)
+
+    def sync(self) -> None:
+        pass
+
+    def arrays(self):
+        d = self.data
+        self.mujoco.mj_kinematics(self.model, d)  # mj_step leaves xpos, xmat at the state before its integration
+        return d.xpos[1:].copy(), d.xmat[1:].reshape(-1, 3, 3).copy(), d.qvel.reshape(-1, 6)[:, :3].copy()
+
+
+class MujocoWarpPile:
+    """MuJoCo-Warp on the same MJCF, on warp_sim's device: put_model / put_data (room for 16 contacts a body and 4
+    constraint rows a contact), mjw.step per step."""
+
+    def __init__(self, mujoco, mjw, parameters: dict, dt: float, device):
+        self.mjw, self.device = mjw, device
+        mjm = mujoco.MjModel.from_xml_string(pile_mjcf(parameters, dt))
+        hessian = 4 * mjm.nv**2  # MuJoCo-Warp's Newton solver factors a dense nv x nv matrix (float32)
+        if hessian > (device.total_memory // 2 if device.is_cuda else MJW_DENSE_LIMIT):
+            raise OverBudget(f"n/a (MuJoCo-Warp's Newton solver factors a dense nv x nv matrix: nv = {mjm.nv:,}, "
+                             f"{hessian / 2**30:.0f} GiB)")
+        mjd = mujoco.MjData(mjm)
+        mujoco.mj_forward(mjm, mjd)
+        contacts = 16 * mjm.nbody
+        with wp.ScopedDevice(device):
+            self.m = mjw.put_model(mjm)
+            self.d = mjw.put_data(mjm, mjd, nconmax=contacts, njmax=4 * contacts)
+
+    def advance(self, steps: int, dt: float) -> None:
+        with wp.ScopedDevice(self.device):
+            for _ in range(steps):
+                self.mjw.step(self.m, self.d)
+
+    def sync(self) -> None:
+        wp.synchronize_device(self.device)
+
+    def arrays(self):
+        d = self.d
+        with wp.ScopedDevice(self.device):
+            self.mjw.kinematics(self.m, d)  # as mj_step, mjw.step leaves the poses before its integration
+        return d.xpos.numpy()[0, 1:], d.xmat.numpy()[0, 1:].reshape(-1, 3, 3), d.qvel.numpy()[0].reshape(-1, 6)[:, :3]
+
+
+def timed(implementation, steps: int, dt: float) -> float:
+    """Seconds for implementation.advance(steps, dt), synchronised on both sides."""
+    implementation.sync()
+    start = time.perf_counter()
+    implementation.advance(steps, dt)
+    implementation.sync()
+    return time.perf_counter() - start
+
+
+# ---------------------------------------------------------------------------------------------------- workers
+
+def make_cloth(key: str, scene: ws.Scene, device, modules: dict):
+    if key in ("warp_sim", "warp_sim_guard"):
+        return cloth.WarpSimCloth(scene, device, guard=key == "warp_sim_guard")
+    if key == "newton":
+        return cloth.NewtonCloth(modules["newton"], scene, device)
+    if device.is_cuda:
+        return cloth.TaichiGatherCloth(modules["taichi"], scene, arch="cuda")
+    return cloth.TaichiGatherCloth(modules["taichi"], scene, threads=1)
+
+
+def closed_form_check(key: str, device, modules: dict) -> dict:
+    """One step of a free particle and of a stretched, moving spring, against a = g and
+    a = g +- (-k (L - L0) - c (v2 - v1).d) d / m at each end, from the float32-rounded state."""
+    s = SPRING
+    x0 = np.array([[0.0, 2.0, 0.0], [0.5, 1.0, 0.0], [0.5 + s["length"], 1.0, 0.0]])
+    v0 = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [s["speed"], 0.0, 0.0]])
+    x0, v0 = (a.astype(np.float32).astype(np.float64) for a in (x0, v0))
+    scene = ws.Scene(gravity=cloth.GRAVITY)
+    scene.add_particles(x0, v0, mass=s["mass"])
+    scene.add_springs([[1, 2]], s["stiffness"], s["damping"], rest_length=[s["rest"]])
+    implementation = make_cloth(key, scene, device, modules)
+    implementation.reset(x0, v0)
+    implementation.advance(1)
+    implementation.sync()
+    a = (implementation.read()[1] - v0) / cloth.DT
+    delta = x0[2] - x0[1]
+    length = np.linalg.norm(delta)
+    d = delta / length
+    f2 = (-s["stiffness"] * (length - s["rest"]) - s["damping"] * np.dot(v0[2] - v0[1], d)) * d
+    g = np.asarray(cloth.GRAVITY)
+    exact = np.stack([g, g - f2 / s["mass"], g + f2 / s["mass"]])
+    free = float(np.abs(a[0] - exact[0]).max())
+    spring = float(np.abs(a[1:] - exact[1:]).max() / np.abs(exact[1:]).max())
+    return {"free_da": free, "spring_rel_da": spring,
+            "ok": free <= CLOSED_FORM_TOLERANCES["free"] and spring <= CLOSED_FORM_TOLERANCES["spring"]}
+
+
+def run_cloth(key: str, n: int, cfg: dict, device, modules: dict) -> dict:
+    closed = closed_form_check(key, device, modules)
+    scene = cloth.make_scene(n)
+    x0, v0 = cloth.initial_state(scene)
+    reference = cloth.trajectory(cloth.NumpyCloth(scene, np.float64), x0, v0)
+    implementation = make_cloth(key, scene, device, modules)
+    agreement = cloth.deviation(cloth.trajectory(implementation, x0, v0), reference, "float32")
+    ok = closed["ok"] and agreement["ok"]
+    summary = (f"{'pass' if ok else 'FAIL'}: spring a rel. err {closed['spring_rel_da']:.0e}, free "
+               f"{closed['free_da']:.0e} m/s^2; cloth 1-step da {agreement['max_da']:.2f} m/s^2 vs numpy f64")
+    cloth.timed(implementation, WARMUP_STEPS)
+    seconds = [cloth.timed(implementation, cfg["steps"]) for _ in range(cfg["repeats"])]
+    return {"check": {"pass": ok, "summary": summary, "closed_form": closed, "against_numpy_float64": agreement,
+                      "tolerances": {"closed_form": CLOSED_FORM_TOLERANCES, "cloth": cloth.TOLERANCES["float32"]}},
+            "seconds": seconds, "steps_per_s": cfg["steps"] / statistics.median(seconds),
+            "particles": scene.particle_count, "springs": scene.spring_count, "dt": cloth.DT}
+
+
+def particle_depth(x: np.ndarray, radius: np.ndarray) -> float:
+    """The deepest any particle's surface is in the ground [m] (0 when none is)."""
+    return float(max(0.0, (radius - x[:, 1]).max()))
+
+
+def run_particles(key: str, n: int, cfg: dict, device, modules: dict) -> dict:
+    scene = particles.make_scene(n)
+    radius = scene.particle_array("radius")
+    if key == "warp_sim":
+        implementation = WarpSimRun(ws.Simulator(scene, "symplectic_euler", device.alias, contact="impulse",
+                                                 guard=True))
+    elif key == "newton":
+        implementation = NewtonParticles(modules["newton"], scene, device)
+    else:
+        implementation = TaichiParticles(modules["taichi"], scene, particles.DT,
+                                         *(("cuda", None) if device.is_cuda else ("cpu", 1)))
+    dt = particles.DT
+    x0, v0 = (a.astype(np.float64) for a in implementation.arrays())
+    implementation.advance(1, dt)
+    implementation.sync()
+    v1 = implementation.arrays()[1].astype(np.float64)
+    free = x0[:, 1] > FREE_HEIGHT
+    drag = 0.0 if key == "newton" else scene.drag  # Newton's particles have no drag
+    exact = np.asarray(scene.gravity) - drag * v0[free] / scene.particle_array("mass")[free, None]
+    free_da = float(np.abs((v1[free] - v0[free]) / dt - exact).max())
+    timed(implementation, WARMUP_STEPS - 1, dt)
+    seconds, depths = [], []
+    for _ in range(cfg["repeats"]):
+        seconds.append(timed(implementation, cfg["steps"], dt))
+        x, v = implementation.arrays()
+        depths.append(particle_depth(x, radius))
+    finite = bool(np.isfinite(x).all() and np.isfinite(v).all())
+    ok = finite and free_da <= FREE_TOLERANCE and max(depths) <= MAX_DEPTH
+    summary = (f"{'pass' if ok else 'FAIL'}: free-flight a err {free_da:.0e} m/s^2, deepest "
+               f"{1e3 * max(depths):.2f} mm" + ("" if finite else ", NON-FINITE"))
+    return {"check": {"pass": ok, "summary": summary, "free_flight_max_da": free_da, "free_particles":
+                      int(free.sum()), "deepest_m_per_round": depths, "finite": finite,
+                      "tolerances": {"free_flight_da": FREE_TOLERANCE, "depth_m": MAX_DEPTH}},
+            "seconds": seconds, "steps_per_s": cfg["steps"] / statistics.median(seconds), "dt": dt,
+            "simulated_s": dt * (WARMUP_STEPS + cfg["repeats"] * cfg["steps"])}
+
+
+def run_pile(key: str, n: int, cfg: dict, device, modules: dict, dt: float, budget: float) -> dict:
+    parameters = collision.body_parameters(n)
+    start = time.perf_counter()
+    if key == "warp_sim":
+        collision.load_kernels(device, dt)
+        implementation = WarpSimRun(ws.Simulator(collision.build_scene(parameters), integrator="symplectic_euler",
+                                                 device=device.alias))
+    elif key in ("newton", "newton_xpbd"):
+        implementation = collision.NewtonPile(modules["newton"], parameters, device,
+                                              solver="xpbd" if key == "newton_xpbd" else "semi_implicit")
+    elif key == "mujoco":
+        implementation = MujocoPile(modules["mujoco"], parameters, dt)
+    else:
+        implementation = MujocoWarpPile(modules["mujoco"], modules["mujoco_warp"], parameters, dt, device)
+    build_s = time.perf_counter() - start
+    top = float(parameters["position"][:, 1].max())
+    speed_bound = math.sqrt(2.0 * 9.81 * (top + collision.SIZE_RANGE[1]))  # a fall from the top of the pile
+    settle_steps = max(3, round(cfg["settle"] / dt))
+    deepest, done, clock = 0.0, 0, time.perf_counter()
+    while done < settle_steps:  # untimed; the deepest point looked at after every chunk
+        chunk = 1 if done < 2 else min(SAMPLE_STEPS, settle_steps - done)
+        chunk_start = time.perf_counter()
+        implementation.advance(chunk, dt)
+        implementation.sync()
+        done += chunk
+        state = collision.pile_summary(*implementation.arrays(), parameters)
+        deepest = min(deepest, state["lowest_point"])
+        if not state["finite"]:
+            break
+        if done == 1:  # the first step compiles or loads kernels: the budget counts from the second
+            clock = time.perf_counter()
+            continue
+        per_step = (time.perf_counter() - chunk_start) / chunk
+        projected = time.perf_counter() - clock + per_step * (settle_steps - done + cfg["steps"])
+        if projected > budget:
+            raise OverBudget(f"n/a (over the {budget:.0f} s budget: {1e3 * per_step:,.0f} ms/step at step {done} of "
+                             f"{settle_steps + cfg['steps']}, {projected:,.0f} s projected)")
+    settled = state
+    seconds = timed(implementation, cfg["steps"], dt)
+    final = collision.pile_summary(*implementation.arrays(), parameters)
+    deepest = min(deepest, final["lowest_point"])
+    finite = settled["finite"] and final["finite"]
+    fastest = max(settled["max_speed"], final["max_speed"]) if finite else float("nan")
+    depth, end_depth = max(0.0, -deepest), max(0.0, -final["lowest_point"])  # [m] into the ground
+    ok = finite and depth <= MAX_DEPTH and fastest <= speed_bound
+    summary = (f"{'pass' if ok else 'FAIL'}: deepest {1e3 * depth:.2f} mm ({1e3 * end_depth:.2f} at "
+               f"the end), max speed {settled['max_speed']:.2f} m/s after {settle_steps * dt:.2g} s"
+               + ("" if finite else ", NON-FINITE")
+               + (f", faster than a fall allows ({speed_bound:.1f} m/s)" if finite and fastest > speed_bound else ""))
+    return {"check": {"pass": ok, "summary": summary, "deepest_m": depth, "deepest_at_end_m": end_depth,
+                      "after_settle": settled, "after_timed": final, "speed_bound": speed_bound,
+                      "tolerances": {"depth_m": MAX_DEPTH}},
+            "seconds": [seconds], "steps_per_s": cfg["steps"] / seconds, "dt": dt, "settle_steps": settle_steps,
+            "build_s": build_s, "boxes": int(np.count_nonzero(parameters["kind"] == "box"))}
+
+
+def worker(args, device) -> None:
+    """One implementation on one workload, every size: a line "RESULT {json}" on stdout per size, as it is done."""
+    workload, key = args.worker
+    mode = "quick" if args.quick else "full"
+    cfg = SETTINGS[mode][workload]
+    peer = next(r["peer"] for r in implementations(workload, device) if r["key"] == key)
+    modules = {}
+    if peer is not None:
+        modules[peer] = importlib.import_module(PEERS[peer][0])
+        if peer == "mujoco_warp":
+            modules["mujoco"] = importlib.import_module("mujoco")
+    for n in cfg["sizes"]:
+        print(f"PROGRESS {workload} {key} {n}", flush=True)
+        try:
+            if workload == "cloth":
+                result = run_cloth(key, n, cfg, device, modules)
+            elif workload == "particles":
+                result = run_particles(key, n, cfg, device, modules)
+            else:
+                result = run_pile(key, n, cfg, device, modules, args.pile_dt, args.budget or BUDGET[mode])
+            result["status"] = "ok"
+        except OverBudget as error:
+            result = {"status": str(error)}
+        except ws.SimulationDiverged as error:
+            result = {"status": f"failed: SimulationDiverged at step {error.step}: {error.reason}"}
+        except Exception as error:  # reported in its row; the next size goes on
+            result = {"status": f"failed: {type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''}"}
+        print("RESULT " + json.dumps({"size": n, **result}), flush=True)
+
+
+# ---------------------------------------------------------------------------------------------------- parent
+
+def last_line(text: str) -> str:
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    return lines[-1][:160] if lines else "(no output)"
+
+
+def spawn(workload: str, key: str, args, device, timeout: float) -> dict:
+    """Run one implementation-workload in a subprocess: {size: result}; a crash or a timeout fills the sizes it did
+    not report with "failed: ..."."""
+    command = [sys.executable, str(Path(__file__).resolve()), "--worker", workload, key, "--device", device.alias,
+               "--pile-dt", repr(args.pile_dt)] + (["--quick"] if args.quick else []) \
+        + (["--budget", repr(args.budget)] if args.budget else [])
+    results = {}
+    with tempfile.TemporaryFile(mode="w+") as stderr:
+        # a session of its own, so that a timeout ends the worker and anything it started, and nothing else
+        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=stderr, text=True, start_new_session=True)
+        killed = threading.Event()
+
+        def kill():
+            killed.set()
+            try:
+                os.killpg(process.pid, signal.SIGKILL)
+            except ProcessLookupError:  # it had just ended
+                pass
+
+        timer = threading.Timer(timeout, kill)
+        timer.start()
+        try:
+            for line in process.stdout:
+                if line.startswith("RESULT "):
+                    result = json.loads(line[len("RESULT "):])
+                    results[result.pop("size")] = result
+                    print(f"    {workload} {result_size(workload, list(results)[-1])} {key}: "
+                          f"{result['check']['summary'] if 'check' in result else result['status']}"
+                          + (f"; {result['steps_per_s']:,.1f} steps/s" if "steps_per_s" in result else ""), flush=True)
+            process.wait()
+        finally:
+            timer.cancel()
+        stderr.seek(0)
+        error_text = stderr.read()
+    if process.returncode != 0:
+        if killed.is_set():
+            reason = f"failed: timed out after {timeout:.0f} s"
+        elif process.returncode < 0:
+            reason = f"failed: {signal.Signals(-process.returncode).name}; {last_line(error_text)}"
+        else:
+            reason = f"failed: {last_line(error_text)}"
+        for n in SETTINGS["quick" if args.quick else "full"][workload]["sizes"]:
+            results.setdefault(n, {"status": reason})
+    return results
+
+
+def result_size(workload: str, n: int) -> str:
+    if workload == "cloth":
+        return f"{n}x{n}"
+    if workload == "particles":
+        exponent = math.log10(n)
+        return f"10^{exponent:.0f}" if exponent == round(exponent) else f"{n:,}"
+    return f"{n:,} bodies"
+
+
+def ratio_cell(reference: float | None, rate: float | None) -> str:
+    return f"{reference / rate:.2f}x" if reference and rate else "-"
+
+
+def table(rows: list[dict]) -> str:
+    cells = []
+    for row in rows:
+        check = row["check"]["summary"] if "check" in row else row["status"]
+        if "check" in row and row["status"] != "ok":
+            check += f"; {row['status']}"
+        rate = row.get("steps_per_s")
+        ratio = ratio_cell(row.get("reference_steps_per_s"), rate)
+        if row["key"] == row.get("reference_key") and rate:
+            ratio = "1.00x (ref)"
+        elif row["key"] == "floor" and rate and row.get("reference_steps_per_s"):
+            ratio += f" ({row['reference_steps_per_s'] / rate:.1%} of the floor)"
+        cells.append([row["workload_label"], row["size_label"], row["label"], check.replace("|", "/"),
+                      f"{rate:,.1f}" if rate else "-", ratio])
+    return markdown(["workload", "size", "implementation", "check", "steps/s", "warp_sim / this"], cells,
+                    left=("workload", "size", "implementation", "check"))
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--device", choices=("cpu", "cuda"), default=None, help="default: cuda if present, else cpu")
+    parser.add_argument("--quick", action="store_true", help="small sizes, few steps (a couple of minutes)")
+    parser.add_argument("--workloads", nargs="+", choices=WORKLOADS, default=list(WORKLOADS))
+    parser.add_argument("--only", nargs="+", default=None, metavar="IMPL",
+                        help="only these implementations (warp_sim, warp_sim_guard, newton, newton_xpbd, taichi, "
+                             "mujoco, mujoco_warp)")
+    parser.add_argument("--pile-dt", type=collision.positive_time, default=PILE_DT,
+                        help="the piles' step [s] (a number or a fraction; default 1/500)")
+    parser.add_argument("--budget", type=float, default=None,
+                        help="seconds one pile run may take, else n/a (default 900, --quick 60)")
+    parser.add_argument("--timeout", type=float, default=None,
+                        help="seconds one implementation-workload subprocess may take (default 3600, --quick 300)")
+    parser.add_argument("--copy-mb", type=int, default=256, help="size of the bandwidth-floor copy [MiB]")
+    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/compare.json"))
+    parser.add_argument("--worker", nargs=2, metavar=("WORKLOAD", "IMPL"), help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    device = pick_device(parser, args.device)
+    if args.worker:
+        worker(args, device)
+        return
+    mode = "quick" if args.quick else "full"
+    timeout = args.timeout or TIMEOUT[mode]
+    peers = peer_status()
+    host_bw, floor_bw = floor_bandwidth(device, args.copy_mb)
+    name = device_name(device)
+    print(f"warp {wp.__version__}, warp_sim {ws.__version__} on {device.alias} ({name}), {os.cpu_count()} cores; "
+          + "; ".join(f"{key} {p['version'] if p['installed'] else 'not installed'}" for key, p in peers.items()))
+    print(f"copy bandwidth (read + write): numpy {host_bw / 1e9:.2f} GB/s"
+          + (f", device wp.copy {floor_bw / 1e9:.1f} GB/s" if device.is_cuda else "") + f"; {mode} run", flush=True)
+
+    started = time.perf_counter()
+    rows = []
+    for workload in args.workloads:
+        cfg = SETTINGS[mode][workload]
+        by_key = {}
+        for impl in implementations(workload, device):
+            if args.only and impl["key"] not in args.only and impl["key"] != "warp_sim":
+                continue
+            if impl["peer"] and not peers[impl["peer"]]["installed"]:
+                by_key[impl["key"]] = {n: {"status": "not installed"} for n in cfg["sizes"]}
+            elif impl["na"]:
+                by_key[impl["key"]] = {n: {"status": impl["na"]} for n in cfg["sizes"]}
+            else:
+                print(f"  {workload}: {impl['label']} ...", flush=True)
+                by_key[impl["key"]] = spawn(workload, impl["key"], args, device, timeout)
+        labels = {impl["key"]: impl["label"] for impl in implementations(workload, device)}
+        for n in cfg["sizes"]:
+            reference = by_key["warp_sim"][n].get("steps_per_s")
+            size_label = result_size(workload, n) + (f", dt 1/{1 / args.pile_dt:.0f} s"
+                                                     if workload in ("pile", "bigpile") else "")
+            base = {"workload": workload, "size": n, "size_label": size_label, "reference_key": "warp_sim",
+                    "reference_steps_per_s": reference,
+                    "workload_label": {"particles": "particles + ground"}.get(workload, workload)}
+            for key, results in by_key.items():
+                rows.append({**base, "key": key, "label": labels[key], **results[n]})
+                if workload == "particles" and key == "warp_sim":
+                    floor = floor_bw / (particles.STATE_BYTES * n)
+                    rows.append({**base, "key": "floor", "status": "ok", "steps_per_s": floor,
+                                 "label": f"copy floor ({'wp.copy' if device.is_cuda else 'np.copyto'} "
+                                          f"{floor_bw / 1e9:.1f} GB/s, {particles.STATE_BYTES} B/particle)",
+                                 "check": {"summary": "- (x and v read and written once a step)"}})
+    print()
+    print(table(rows))
+
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    result = {"device": device.alias, "device_name": name, "cpu_count": os.cpu_count(), "warp_version": wp.__version__,
+              "warp_sim_version": ws.__version__, "numpy_version": np.__version__, "peers": peers, "mode": mode,
+              "settings": {w: SETTINGS[mode][w] for w in args.workloads}, "pile_dt": args.pile_dt,
+              "budget_s": args.budget or BUDGET[mode], "timeout_s": timeout,
+              "numpy_copy_bytes_per_s": host_bw, "floor_bytes_per_s": floor_bw,
+              "floor_method": "wp.copy" if device.is_cuda else "np.copyto", "max_depth_m": MAX_DEPTH,
+              "wall_s": time.perf_counter() - started, "rows": rows}
+    args.out.write_text(json.dumps(result, indent=2) + "\n")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
