@@ -11,6 +11,7 @@ from ..kernels import blocks
 from ..kernels import fields as field_kernels
 from ..scene.fields import Attractor, Turbulence, Vortex
 from ..util import checks
+from .turbulence import TurbulenceGrids
 
 
 class FieldForces(ForceTerm):
@@ -20,6 +21,7 @@ class FieldForces(ForceTerm):
     """
 
     targets = frozenset({"particles"})
+    kernels = ("fields",)
 
     def __init__(self, model: Model, fields: list):
         self.model = model
@@ -31,9 +33,6 @@ class FieldForces(ForceTerm):
         def array(values):
             values = np.ascontiguousarray(values, dtype=model.numpy_scalar)
             return wp.array(values, dtype=model.vec3 if values.ndim == 2 else model.scalar, device=model.device)
-
-        def integers(values):
-            return wp.array(np.asarray(values, dtype=np.int32), dtype=wp.int32, device=model.device)
 
         attractors = [f for f in fields if isinstance(f, Attractor)]
         vortices = [f for f in fields if isinstance(f, Vortex)]
@@ -49,12 +48,8 @@ class FieldForces(ForceTerm):
                                         axis=array([f.axis for f in vortices]),
                                         strength=array([f.strength for f in vortices]),
                                         core_radius=array([f.core_radius for f in vortices]))
-        if turbulence:
-            self.turbulence = blocks.fill(B.Turbulences, strength=array([f.strength for f in turbulence]),
-                                          inv_scale=array([1.0 / f.scale for f in turbulence]),
-                                          frequency=array([f.frequency for f in turbulence]),
-                                          seed=integers([f.seed for f in turbulence]),
-                                          octaves=integers([f.octaves for f in turbulence]))
+        if turbulence:   # baked here, once: its grids are derived from the scene (nothing to checkpoint)
+            self.turbulence = TurbulenceGrids(turbulence, model.scalar, model.device, model.launch)
 
     def apply(self, state: State, t: float, forces: Forces) -> None:
         m, k = self.model, field_kernels
@@ -64,4 +59,4 @@ class FieldForces(ForceTerm):
         if self.vortices is not None:
             m.launch(k.vortex_forces, m.particle_count, [x, w, self.vortices, f])
         if self.turbulence is not None:
-            m.launch(k.turbulence_forces, m.particle_count, [x, w, m.scalar(t), self.turbulence, f])
+            m.launch(k.turbulence_forces, m.particle_count, [x, w, self.turbulence.block, self.turbulence.at(t), f])

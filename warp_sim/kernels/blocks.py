@@ -24,7 +24,9 @@ structs of one precision (``of(wp.float64).Springs()``); each field's dtype and 
   (effective masses along n and the tangents)
 - Attractors: center [m] (vec3), strength GM [m^3/s^2], min_distance [m]
 - Vortices: center [m] (vec3), axis (unit vec3), strength [m^2/s^2], core_radius [m]
-- Turbulences: strength [m/s^2], inv_scale [1/m], frequency [1/s], seed (int32), octaves (int32)
+- Turbulences (made by warp_sim.forces.turbulence): strength [m/s^2], inv_period [1/m] (1 / the period of the
+  field's grid), nodes (int32, the grid's nodes per axis), offset (int32, the grid's first node in the potential
+  array turbulence_forces takes)
 - ImpulseTable (warm starting, open addressing): used (int32), keys (vec2i), cells (vec3i), n [N s], t [N s]
 """
 import types
@@ -52,8 +54,7 @@ LAYOUTS = {
                     "mass_t2": "scalar"},
     "Attractors": {"center": "vec3", "strength": "scalar", "min_distance": "scalar"},
     "Vortices": {"center": "vec3", "axis": "vec3", "strength": "scalar", "core_radius": "scalar"},
-    "Turbulences": {"strength": "scalar", "inv_scale": "scalar", "frequency": "scalar", "seed": wp.int32,
-                    "octaves": wp.int32},
+    "Turbulences": {"strength": "scalar", "inv_period": "scalar", "nodes": wp.int32, "offset": wp.int32},
     "ImpulseTable": {"used": wp.int32, "keys": wp.vec2i, "cells": wp.vec3i, "n": "scalar", "t": "vec3"},
 }
 

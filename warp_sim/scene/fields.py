@@ -13,7 +13,7 @@ import numpy as np
 
 from ..util import checks
 
-#: octaves of Turbulence: 1 .. MAX_OCTAVES (octave k samples the noise at 2^k times the coordinate)
+#: octaves of Turbulence: 1 .. MAX_OCTAVES (octave k: eddies 2^k times smaller; its grid keeps 3 at most)
 MAX_OCTAVES = 16
 SEED_LIMIT = 2**31
 
@@ -97,16 +97,20 @@ class Vortex(Field):
 
 @dataclass(frozen=True)
 class Turbulence(Field):
-    """Divergence-free curl noise: a = strength curlnoise(seed, (x / scale, t frequency), octaves), evaluated in
-    float32 (Warp's noise), also in float64 scenes.
+    """Divergence-free turbulence: a = strength curl psi(x / scale, t), psi a random vector potential baked once on
+    a periodic grid and read as a quadratic B-spline (a is continuous); float32 grid, also in float64 scenes. Its
+    spectrum, period, normalisation and cost: docs/fields.md.
 
-    strength: scales Warp's curl noise, whose magnitude averages about 1 and stays below 4 (largest seen: 3.1
-        with one octave, 3.6 with several) [m/s^2], >= 0
-    scale: the size of the eddies [m], > 0
-    frequency: how fast the field changes in time (0: steady, and then Warp's 3-D curl noise, about 3x cheaper
-        than the 4-D one) [1/s], >= 0
-    seed: selects the field, an integer in [0, 2^31)
-    octaves: an integer in [1, 16], each adding detail at half the size and half the weight
+    strength: the RMS of |a| over space, exactly, at every instant [m/s^2], >= 0; |a| averages about 0.92 strength
+    scale: the Perlin lattice spacing of the largest octave [m], > 0: the energy peaks at wavelengths of about
+        1.1 scale; the field repeats every 4 scale along each axis
+    frequency: how fast the field changes (0: steady) [1/s], >= 0: every 1/frequency seconds the potential has
+        turned a quarter circle onto the next of three orthonormal potentials, with a random sign, so the field
+        decorrelates over a few 1/frequency seconds, never repeats, and keeps its RMS
+    seed: selects the field, an integer in [0, 2^31); one seed gives one field, bit for bit, on a device
+    octaves: an integer in [1, 16], each adding eddies at half the size and half the acceleration; the grid
+        (16, 32, 52 nodes per axis for 1, 2, 3 octaves) resolves 3: more are left out, with a warning (they
+        would carry about 1% of the energy)
     """
     strength: float
     scale: float = 1.0
