@@ -16,6 +16,7 @@ from tqdm.auto import tqdm
 from . import kernels
 from .assembly import RESPONSES, assemble
 from .core import persistence
+from .core.capture import StepGraphs
 from .core.guards import Guard, SimulationDiverged
 from .core.persistence import Persistent
 from .kernels import rigid as rigid_kernels
@@ -64,6 +65,10 @@ class Simulator(Persistent):
     fused: take the fused step where the scene has one (particles and cloth under symplectic_euler, with their
         plane impulses and guard in one launch; ``sim.fused`` is it, or None), the same states bit for bit as
         the generic path; False: always the generic path
+    capture: record each step as a Warp graph on its first use (per step size) and replay it (core.capture: CUDA
+        graphs, Warp's API capture on the CPU), where every part of the scene allows it (``sim.captured``): fixed-step
+        solvers, particles, cloth, bodies without contacts, planes, time-independent fields; otherwise a warning
+        names the parts that do not, and it runs uncaptured
 
     With "rk45" each ``step(dt)`` lands exactly on t + dt, taking as many internal steps as the tolerance
     needs (``sim.integrator.stats()`` counts them), so ``run(..., substeps=1)`` is the natural choice.
@@ -73,7 +78,7 @@ class Simulator(Persistent):
     Attributes: scene; settings (the options above); model (constants), control (held inputs), state (the current
     State; a new object after each step, so read ``sim.state.particle_x`` afresh), dynamics, integrator, passes (in
     order);
-    body_contacts, particle_shapes, impacts, strain_limiter, emitters (those passes, or None); guard; fused;
+    body_contacts, particle_shapes, impacts, strain_limiter, emitters (those passes, or None); guard; fused; captured;
     time [s]; step_count; output: the stage the last run() wrote (a pathlib.Path), or None.
     """
 
@@ -82,7 +87,7 @@ class Simulator(Persistent):
     def __init__(self, scene: Scene, integrator="rk4", device: str | None = None, contact: str = "impulse",
                  penalty_stiffness: float = 1.0e4, guard: bool = True, max_speed: float = 1.0e4,
                  contact_margin: float = 0.005, collisions: bool = True, contact_step: float | None = 1.0 / 120.0,
-                 fused: bool = True):
+                 fused: bool = True, capture: bool = False):
         if not isinstance(scene, Scene):
             raise checks.fail("scene", scene, "expected a warp_sim.Scene")
         if scene.particle_count == 0 and scene.body_count == 0:
@@ -97,13 +102,16 @@ class Simulator(Persistent):
             raise checks.fail("guard", guard, "expected True or False")
         if not isinstance(fused, bool):
             raise checks.fail("fused", fused, "expected True or False")
+        if not isinstance(capture, bool):
+            raise checks.fail("capture", capture, "expected True or False")
         if contact_step is not None:
             contact_step = checks.scalar("contact_step", contact_step, low=0.0, low_open=True)
         device = resolve_device(device)
         parts = assemble(scene, device, integrator, contact, stiffness, margin, collisions, contact_step, fused)
         #: the options it was made with, which a checkpoint must match
         self.settings = dict(device=device, contact=contact, penalty_stiffness=stiffness, guard=guard, max_speed=speed,
-                             contact_margin=margin, collisions=collisions, contact_step=contact_step, fused=fused)
+                             contact_margin=margin, collisions=collisions, contact_step=contact_step, fused=fused,
+                             capture=capture)
         self.scene = scene
         self.model = parts.model
         self.control = parts.control
@@ -123,8 +131,11 @@ class Simulator(Persistent):
         self.fused, self._after_fused = parts.fused, parts.after_fused
         if self.fused is not None and self.guard is not None:
             self.fused.set_guard(*self.guard.record_of("particles"))
-        #: whether the fused step checks the particles for the guard (nothing runs after it)
-        self._guard_folded = self.fused is not None and self.fused.checks and not self._after_fused
+        #: whether the fused step checks the particles for the guard (nothing runs after it, and no graph bakes
+        #: the step number in)
+        self._guard_folded = self.fused is not None and self.fused.checks and not self._after_fused and not capture
+        self._first = self.state
+        self._graphs = self._step_graphs() if capture else None
         self._load_kernels()
         self.time = 0.0
         self.step_count = 0
@@ -132,13 +143,32 @@ class Simulator(Persistent):
 
     def kernel_modules(self) -> list[str]:
         """The kernel modules (names in warp_sim.kernels) the parts that run this simulation launch, sorted."""
+        parts = self._running_parts() + ([self.guard] if self.guard is not None and not self._guard_folded else [])
+        return sorted({name for part in parts for name in part.kernels})
+
+    def _running_parts(self) -> list:
+        """The parts a step runs: the solver, components and passes (or the fused step and the passes after it),
+        and the force terms."""
         if self.fused is None:
             parts = [self.integrator, *self.dynamics.components, *self.passes]
         else:
             parts = [self.fused, *self._after_fused]
-        parts += [*self.dynamics.force_terms, *([self.guard] if self.guard is not None and not self._guard_folded
-                                                else [])]
-        return sorted({name for part in parts for name in part.kernels})
+        return parts + list(self.dynamics.force_terms)
+
+    def _step_graphs(self):
+        """The step's graphs (core.capture) when every part a step runs can be captured, else None with a warning
+        naming the parts that cannot (their launches change from step to step)."""
+        refusing = sorted({type(part).__name__ for part in self._running_parts() if not part.capturable})
+        if refusing:
+            warnings.warn(f"capture=True: this scene's steps are not captured: {', '.join(refusing)} "
+                          "change their launches from step to step; it runs uncaptured", stacklevel=3)
+            return None
+        return StepGraphs(self.model)
+
+    @property
+    def captured(self) -> bool:
+        """Whether steps are recorded as Warp graphs and replayed (``capture=True`` on a scene that allows it)."""
+        return self._graphs is not None
 
     def _load_kernels(self) -> None:
         """Compile (or load from Warp's cache) every kernel module the simulation launches, in parallel on all
@@ -225,8 +255,22 @@ class Simulator(Persistent):
 
     def _advance(self, h: float) -> None:
         """One step of h seconds (in ``substeps(h)`` equal pieces): per piece the solver from state into the spare
-        state, the passes on it and the swap; then the guard."""
+        state, the passes on it and the swap (replayed from a graph where captured); then the guard."""
         pieces = self.substeps(h)
+        start_time = self.time
+        if self._graphs is None:
+            self._pieces(h, pieces)
+        elif self._graphs.step((h, self.state is self._first), lambda: self._pieces(h, pieces)):
+            if pieces % 2:   # a replay: the host side of the step again
+                self.state, self._next = self._next, self.state
+        self.time = start_time + h
+        self.step_count += 1
+        if self.guard is not None:
+            folded = ("particles",) if self._guard_folded else ()
+            self.guard.record(self.state, self.step_count, self.time, folded)
+
+    def _pieces(self, h: float, pieces: int) -> None:
+        """The ``pieces`` equal pieces of a step of h seconds, each swapping the States."""
         piece = h / pieces
         start_time = self.time
         for k in range(pieces):
@@ -244,11 +288,6 @@ class Simulator(Persistent):
                 step_pass.apply(start, end, self.time, piece)
             self.state, self._next = end, start
             self.time = start_time + piece * (k + 1)
-        self.time = start_time + h
-        self.step_count += 1
-        if self.guard is not None:
-            folded = ("particles",) if self._guard_folded else ()
-            self.guard.record(self.state, self.step_count, self.time, folded)
 
     def frame_arrays(self) -> dict:
         """The current state's arrays a frame holds, as numpy copies (they stay as they are when the simulation

@@ -108,7 +108,8 @@ class Prepared:
         threads (a contact solve's colours: input i is the colour's first manifold). One call for a whole
         sweep, so on the CPU's direct path each launch costs little more than the call itself."""
         launcher = self.launcher
-        if self.direct is None or i not in self.simple or launcher.log is not None or launcher.profile is not None:
+        if (self.direct is None or i not in self.simple or launcher.log is not None or launcher.profile is not None
+                or launcher.capturing):
             for _ in range(repeats):
                 for value, dim in launches:
                     self.set(i, value)
@@ -145,7 +146,9 @@ class Prepared:
 
     def _run(self, dim: int) -> None:
         command = self.command
-        if self.direct is None:
+        if self.direct is None or self.launcher.capturing:   # through Warp, which records it in a capture
+            for i in self.simple:   # scalars the direct path set in its own struct only
+                command.set_param_at_index(i, self.values[i])
             if dim != self.dim:
                 command.set_dim(dim)
                 self.dim = dim
@@ -173,6 +176,7 @@ class Launcher:
     log: None, or a list each launch appends (kernel name, threads) to;
     profile: None, or a dict each launch adds to, per kernel name [launches, seconds, argument bytes], the device
         synchronised around each launch (benchmarks/common.KernelProfile)
+    capturing: True while core.capture records a graph: every launch then goes through Warp
     """
 
     capacity = 512
@@ -184,6 +188,7 @@ class Launcher:
         self.single_thread: Counter = Counter()
         self.log: list | None = None
         self.profile: dict | None = None
+        self.capturing = False   # a graph is being recorded (core.capture): no direct CPU calls
 
     def prepare(self, kernel, dim: int, inputs: list) -> Prepared:
         """The recorded launch of ``kernel`` on these arrays and structs (recorded now if new), its scalars set

@@ -25,10 +25,12 @@ class Component:
     position_rates_need_positions: whether its position-block rates read positions too (not only velocities)
     guard_reasons: the divergence guard's reason codes (see kernels.guards) in its words
     kernels: the kernel modules (names in warp_sim.kernels) it launches, compiled together when a Simulator starts
+    capturable: whether its launches are the same every step, so a step can be captured (core.capture)
     """
 
     name = "component"
     kernels: tuple[str, ...] = ()
+    capturable = True
     fields: list[StateField] = []
     position_rates_need_positions = False
     guard_reasons = {0: "non-finite position", 1: "non-finite velocity", 2: "speed above max_speed"}
@@ -68,10 +70,12 @@ class ForceTerm:
 
     targets: the components whose accumulators it writes ("particles", "bodies")
     kernels: the kernel modules (names in warp_sim.kernels) it launches
+    capturable: whether its launches are the same every step (no read-back, no time as a scalar: core.capture)
     """
 
     targets = frozenset({"particles"})
     kernels: tuple[str, ...] = ()
+    capturable = True
 
     def apply(self, state: State, t: float, forces: "Forces") -> None:
         raise NotImplementedError
@@ -86,10 +90,12 @@ class Pass(Persistent):
     into equal sub-steps, solver and passes each, inside ``step()``
     persistent: what it carries from one step to the next, for checkpoints (core.persistence; none by default)
     kernels: the kernel modules (names in warp_sim.kernels) it launches
+    capturable: whether its launches are the same every step (core.capture); False unless a pass says so
     """
 
     max_step: float | None = None
     kernels: tuple[str, ...] = ()
+    capturable = False
 
     def check_step(self, h: float) -> None:
         """Refuse a step of h seconds this pass cannot handle (ValueError); by default accept any."""

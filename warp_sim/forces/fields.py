@@ -50,6 +50,8 @@ class FieldForces(ForceTerm):
                                         core_radius=array([f.core_radius for f in vortices]))
         if turbulence:   # baked here, once: its grids are derived from the scene (nothing to checkpoint)
             self.turbulence = TurbulenceGrids(turbulence, model.scalar, model.device, model.launch)
+        #: a time-varying turbulence blends its potentials at each step's time (host weights): not capturable
+        self.capturable = not any(field.frequency > 0.0 for field in turbulence)
 
     def apply(self, state: State, t: float, forces: Forces) -> None:
         m, k = self.model, field_kernels

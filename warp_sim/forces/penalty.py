@@ -34,6 +34,7 @@ class BodyPenalty(ForceTerm):
 
     targets = frozenset({"bodies"})
     kernels = ("penalty", "detection")
+    capturable = False   # the detection reads its contact counts back
 
     def __init__(self, model: Model, stiffness: float, detection: Detection):
         self.model = model

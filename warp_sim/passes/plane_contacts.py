@@ -21,6 +21,7 @@ class PlaneImpacts(Pass):
     """
 
     kernels = ("planes",)
+    capturable = True
 
     def __init__(self, model: Model):
         self.model = model

@@ -10,6 +10,7 @@ class ComponentProjection(Pass):
     """Runs every component's ``post_step`` on the end state (e.g. renormalises body orientations)."""
 
     kernels = ("rigid",)
+    capturable = True
 
     def __init__(self, dynamics: Dynamics):
         self.dynamics = dynamics

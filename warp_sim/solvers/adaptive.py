@@ -67,6 +67,7 @@ class RK45(Integrator):
     """
 
     name, order = "rk45", 5
+    capturable = False   # its step size and the steps it takes follow an error read back
     min_step_fraction = 1.0e-12
     persistent = ("step_size", "accepted", "rejected", "evaluations")
     safety, min_factor, max_factor = 0.9, 0.2, 5.0

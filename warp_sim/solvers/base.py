@@ -24,10 +24,12 @@ class Integrator(Persistent):
     dynamics: the Dynamics it is bound to (None before ``bind``)
     persistent: what it carries from one step to the next (a step size, a warm start, counters), for checkpoints
     kernels: the kernel modules (names in warp_sim.kernels) it launches
+    capturable: whether its launches are the same every step (a fixed step: core.capture)
     """
 
     name = ""
     kernels: tuple[str, ...] = ("integrate",)
+    capturable = True
     order = 0
     position_response = 0.5
 

@@ -26,6 +26,7 @@ class FusedParticleStep:
     """
 
     kernels = ("fused",)
+    capturable = True
 
     def __init__(self, dynamics: Dynamics, impacts: bool, touched: wp.array):
         self.dynamics = dynamics

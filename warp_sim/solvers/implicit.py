@@ -91,6 +91,7 @@ class ImplicitEuler(Partitioned):
     name, order = "implicit_euler", 1
     position_response = 1.0
     kernels = ("integrate", "implicit")
+    capturable = False   # the conjugate-gradient solve stops on a residual read back
     persistent = ("dv", "last_iterations", "last_residual", "last_tolerance", "last_converged",
                   "unconverged_solves", "iterations", "relative_residuals", "_reported", "_worst_unreported")
 
