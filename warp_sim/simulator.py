@@ -129,11 +129,12 @@ class Simulator(Persistent):
             self.emitters.initial_births(self.state, 0.0)
         self.guard = Guard(self.model, self.dynamics.components, speed) if guard else None
         self.fused, self._after_fused = parts.fused, parts.after_fused
-        if self.fused is not None and self.guard is not None:
+        #: whether the fused step checks the particles for the guard: where nothing runs after it and no graph
+        #: bakes the step number in
+        self._guard_folded = (self.fused is not None and self.guard is not None and not self._after_fused
+                              and not capture)
+        if self._guard_folded:
             self.fused.set_guard(*self.guard.record_of("particles"))
-        #: whether the fused step checks the particles for the guard (nothing runs after it, and no graph bakes
-        #: the step number in)
-        self._guard_folded = self.fused is not None and self.fused.checks and not self._after_fused and not capture
         self._first = self.state
         self._graphs = self._step_graphs() if capture else None
         self._load_kernels()

@@ -127,6 +127,11 @@ class Model:
         self.planes = blocks.fill(self.blocks.Planes, normal=self.plane_normal, offset=self.plane_offset,
                                   restitution=self.plane_restitution, friction=self.plane_friction)
 
+    def no_planes(self):
+        """A Planes block of no planes, for kernels that take planes where none apply."""
+        return blocks.fill(self.blocks.Planes, normal=self.empty(self.vec3), offset=self.empty(),
+                           restitution=self.empty(), friction=self.empty())
+
     def empty(self, dtype=None):
         """A zero-length array of this model's scalar (or the given) type, for absent optional inputs."""
         return wp.empty(0, dtype=dtype or self.scalar, device=self.device)

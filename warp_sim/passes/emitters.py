@@ -160,9 +160,7 @@ class _Pool(Persistent):
         self.kill = blocks.fill(kernels.KillPlanes, normal=normal,
                                 offset=wp.array([o for _, o in planes], dtype=wp.float32, device=device))
         contact = self.e.kill_on_contact and model.plane_count > 0
-        self.contact_planes = model.planes if contact else blocks.fill(
-            model.blocks.Planes, normal=model.empty(model.vec3), offset=model.empty(), restitution=model.empty(),
-            friction=model.empty())
+        self.contact_planes = model.planes if contact else model.no_planes()
         self.touched = model.empty(wp.int32)
 
     def age_and_kill(self, state, now: float) -> None:

@@ -12,7 +12,6 @@ from __future__ import annotations
 import warp as wp
 
 from ..core.dynamics import Dynamics
-from ..kernels import blocks
 from ..kernels import fused as fused_kernels
 from ..kernels.guards import GuardRecord
 
@@ -21,8 +20,9 @@ class FusedParticleStep:
     """One launch per step for a particles-only Dynamics under symplectic_euler.
 
     impacts: whether the plane impulses are folded in (the scene's impulse plane contacts); touched: their
-    per-particle contact flags (int32, empty unless a kill-on-contact emitter reads them); checks: whether the
-    guard's check is folded in (``set_guard``).
+    per-particle contact flags (int32, empty unless a kill-on-contact emitter reads them); record, max_speed:
+    the particles' guard record and bound, once the Simulator folds the guard in (``set_guard``; else a record the
+    kernel never writes, as it is launched with step 0).
     """
 
     kernels = ("fused",)
@@ -33,17 +33,14 @@ class FusedParticleStep:
         model = self.model = dynamics.model
         self.impacts = int(impacts)
         self.touched = touched
-        self.planes = model.planes if model.planes is not None else blocks.fill(
-            model.blocks.Planes, normal=model.empty(model.vec3), offset=model.empty(), restitution=model.empty(),
-            friction=model.empty())
+        self.planes = model.planes if model.planes is not None else model.no_planes()
         self.record = GuardRecord()
         self.record.first_step = self.record.first_key = wp.empty(1, dtype=wp.int32, device=model.device)
         self.max_speed = model.scalar(0.0)
-        self.checks = False
 
     def set_guard(self, record: GuardRecord, max_speed) -> None:
         """Fold the guard's check of the particles (its record, its bound [m/s] in the model's scalar) in."""
-        self.record, self.max_speed, self.checks = record, max_speed, True
+        self.record, self.max_speed = record, max_speed
 
     def step(self, start, end, t: float, h: float, check: int) -> None:
         """``end`` from ``start`` over h seconds from time t; check > 0: record the guard's check as that step."""
