@@ -258,37 +258,53 @@ class Simulator(Persistent):
         """One step of h seconds (in ``substeps(h)`` equal pieces): per piece the solver from state into the spare
         state, the passes on it and the swap (replayed from a graph where captured); then the guard."""
         pieces = self.substeps(h)
+        piece = h / pieces
         start_time = self.time
-        if self._graphs is None:
-            self._pieces(h, pieces)
-        elif self._graphs.step((h, self.state is self._first), lambda: self._pieces(h, pieces)):
-            if pieces % 2:   # a replay: the host side of the step again
-                self.state, self._next = self._next, self.state
+        for k in range(pieces):
+            if self._graphs is None:
+                self._piece(piece, k == pieces - 1)
+            else:
+                self._captured_piece(piece, k == pieces - 1)
+            self.time = start_time + piece * (k + 1)
         self.time = start_time + h
         self.step_count += 1
         if self.guard is not None:
             folded = ("particles",) if self._guard_folded else ()
             self.guard.record(self.state, self.step_count, self.time, folded)
 
-    def _pieces(self, h: float, pieces: int) -> None:
-        """The ``pieces`` equal pieces of a step of h seconds, each swapping the States."""
-        piece = h / pieces
-        start_time = self.time
-        for k in range(pieces):
-            for step_pass in self.passes:
-                step_pass.check_step(piece)
+    def _captured_piece(self, piece: float, last: bool) -> None:
+        """One piece of ``piece`` seconds from its graph (recorded on first use). Where a pass says the recorded
+        launches did not hold it (contacts or colours outgrew them), the States go back as they were, every graph
+        is dropped and the piece is done uncaptured (which grows them; later pieces record afresh). The first
+        piece, and the first after such a miss, runs uncaptured (core.capture.StepGraphs.primed)."""
+        graphs = self._graphs
+        after = self.passes if self.fused is None else self._after_fused
+        if graphs.primed:
             start, end = self.state, self._next
-            if self.fused is None:
-                self.integrator.step(start, end, self.time, piece)
-                after = self.passes
-            else:   # the guard's check folded into the last piece, where nothing runs after it
-                check = self.step_count + 1 if self._guard_folded and k == pieces - 1 else 0
-                self.fused.step(start, end, self.time, piece, check)
-                after = self._after_fused
-            for step_pass in after:
-                step_pass.apply(start, end, self.time, piece)
-            self.state, self._next = end, start
-            self.time = start_time + piece * (k + 1)
+            if graphs.step((piece, start is self._first), lambda: self._piece(piece, False),
+                           lambda: [step_pass.before_capture() for step_pass in after]):
+                self.state, self._next = end, start   # a replay: the host side of the piece again
+            if all(step_pass.replay_held() for step_pass in after):
+                return
+            self.state, self._next = start, end   # the piece left start as it was
+            graphs.miss()
+        self._piece(piece, last)
+        graphs.primed = True
+
+    def _piece(self, piece: float, last: bool) -> None:
+        """One piece of a step, ``piece`` seconds (the last of its step: ``last``), swapping the States."""
+        for step_pass in self.passes:
+            step_pass.check_step(piece)
+        start, end = self.state, self._next
+        if self.fused is None:
+            self.integrator.step(start, end, self.time, piece)
+            after = self.passes
+        else:   # the guard's check folded into the last piece, where nothing runs after it
+            self.fused.step(start, end, self.time, piece, self.step_count + 1 if self._guard_folded and last else 0)
+            after = self._after_fused
+        for step_pass in after:
+            step_pass.apply(start, end, self.time, piece)
+        self.state, self._next = end, start
 
     def frame_arrays(self) -> dict:
         """The current state's arrays a frame holds, as numpy copies (they stay as they are when the simulation

@@ -15,7 +15,10 @@ import warp as wp
 class StepGraphs:
     """The recorded graphs of one simulation's step, by key; ``step(key, record)`` replays or records.
 
-    recorded: graphs recorded so far; replays: steps replayed from a graph
+    recorded: graphs recorded so far; replays: steps replayed from a graph; missed: replays whose launches did not
+        hold the step (a buffer or colouring outgrew them), each done again uncaptured, after which every graph is
+        recorded afresh; primed: whether a step ran uncaptured since the start or the last miss (the first step
+        runs uncaptured: it allocates what a capture would only record, and sizes the launches of what can grow)
     """
 
     limit = 8   # graphs kept (distinct step sizes and parities); past it they are dropped and recorded again
@@ -25,14 +28,17 @@ class StepGraphs:
         self.graphs: dict = {}
         self.recorded = 0
         self.replays = 0
+        self.missed = 0
+        self.primed = False
 
-    def step(self, key, record) -> bool:
-        """Launch the graph recorded under ``key``; the first time, record it from ``record()`` (which runs the
-        step's host side once, its launches only recorded) and launch it. Returns True for a replay, after which
-        the caller repeats the step's host-side effects (the State swap, the time)."""
+    def step(self, key, record, prepare) -> bool:
+        """Launch the graph recorded under ``key``; the first time, call ``prepare()``, then record the graph from
+        ``record()`` (which runs the step's host side once, its launches only recorded) and launch it. Returns
+        True for a replay, after which the caller repeats the step's host-side effects (the State swap)."""
         graph = self.graphs.get(key)
         replay = graph is not None
         if not replay:
+            prepare()
             if len(self.graphs) >= self.limit:
                 self.graphs.clear()
             launcher = self.model.launcher
@@ -52,3 +58,10 @@ class StepGraphs:
     def invalidate(self) -> None:
         """Drop every graph (an array they launch on was replaced): the next steps record afresh."""
         self.graphs.clear()
+
+    def miss(self) -> None:
+        """A replay's launches did not hold its step: count it and drop every graph (the step done again
+        uncaptured grows what was too small, and changes the launches)."""
+        self.missed += 1
+        self.primed = False
+        self.invalidate()

@@ -35,8 +35,14 @@ class GrowableBuffer:
         b.pair = wp.empty(size, dtype=wp.int32, device=self.device)
         self.buffer = b
 
-    def fill(self, launch) -> int:
-        """Run ``launch(buffer)``; if it wrote more than fits, grow to fit and run it again. Returns the count."""
+    def fill(self, launch, capturing: bool = False) -> int | None:
+        """Run ``launch(buffer)``; if it wrote more than fits, grow to fit and run it again. Returns the count.
+        While a step is captured (``capturing``) nothing is read back: it launches once and returns None, and the
+        step's gate (kernels.manifolds.gate_response) sees a count over the capacity after the replay."""
+        if capturing:
+            self.count.zero_()
+            launch(self.buffer)
+            return None
         while True:
             self.count.zero_()
             launch(self.buffer)

@@ -23,7 +23,8 @@ class Detection:
 
     geometry: the shapes (ContactGeometry); margin: the gap below which shapes count as touching [m]
     pairs, contacts: growable buffers of candidate pairs and contacts; grid: the bodies' hash grid
-    cell: its cell size [m]; pair_count, count: pairs and contacts found by the last detect
+    cell: its cell size [m]; pair_count, count: pairs and contacts found by the last detect (the last one not
+        captured: a captured step reads nothing back, and its launches run over the buffers' capacities)
     """
 
     def __init__(self, model: Model, geometry: ContactGeometry, margin: float):
@@ -39,9 +40,11 @@ class Detection:
         self.pair_count = 0
         self.count = 0
 
-    def detect(self, start: State, end: State) -> int:
-        """Contacts at the start poses that could close before the end poses; returns their count."""
+    def detect(self, start: State, end: State) -> int | None:
+        """Contacts at the start poses that could close before the end poses; returns their count (None while a
+        step is captured: the count stays on the device)."""
         m = self.model
+        capturing = m.launcher.capturing
         geoms = self.geometry.geoms
         B = m.body_count
         self.geometry.max_reach.zero_()
@@ -53,11 +56,14 @@ class Detection:
         def pairs(buffer):
             m.launch(detection_kernels.find_pairs, B, [geoms, self.grid.id, statics, self.geometry.max_reach, buffer])
 
-        self.pair_count = self.pairs.fill(pairs)
+        pair_count = self.pairs.fill(pairs, capturing)
 
         def contacts(buffer):
-            m.launch(detection_kernels.narrow_phase, self.pair_count,
+            m.launch(detection_kernels.narrow_phase, self.pairs.capacity if capturing else pair_count,
                      [self.pairs.buffer, geoms, self.geometry.max_reach, buffer])
 
-        self.count = self.contacts.fill(contacts) if self.pair_count else 0
+        if capturing:
+            return self.contacts.fill(contacts, capturing)
+        self.pair_count = pair_count
+        self.count = self.contacts.fill(contacts) if pair_count else 0
         return self.count

@@ -11,7 +11,7 @@ from typing import Any
 
 import warp as wp
 
-from .detection import ContactBuffer, Geoms, is_body
+from .detection import ContactBuffer, Geoms, beyond, is_body
 from .manifolds import ManifoldSet, manifold_rows, touch, untouched
 from .planes import first_contact_time
 from .precisions import register
@@ -85,6 +85,8 @@ def prepare_contacts(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), ro
     velocities, load_velocities).
     """
     c = wp.tid()
+    if beyond(contacts.count, c, contacts.ids.shape[0]):
+        return
     i = contacts.ids[c][0]
     j = contacts.ids[c][1]
     zero = type(h)(0.0)
@@ -271,7 +273,7 @@ def accumulate(pair: wp.vec2i, body_count: int, work: Any, mass: Any, r1: Any, r
 
 
 @wp.kernel
-def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep: int, h: Any, start: Any, end: Any,
+def collide_manifolds(manifolds: ManifoldSet, colour: int, iterations: int, sweep: int, h: Any, start: Any, end: Any,
                       rows: Any, mass: Any, work: Any, bounce_speed: Any):
     """One sweep of collisions over one colour of manifolds, a thread each (graph-coloured Gauss-Seidel; the
     sweeps repeat so that impacts propagate through touching bodies, as in Newton's cradle). A manifold whose
@@ -285,7 +287,9 @@ def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep
     After the first sweep a manifold is looked at again only if an impulse of the sweep before or of this one
     changed one of its bodies (work.stamp): otherwise its contacts stand as it left them, separating, and it
     would find no impact (exact, and most of a pile's manifolds are quiet)."""
-    c, last = manifold_rows(manifolds, first, wp.tid())
+    p, c, last = manifold_rows(manifolds, colour, wp.tid())
+    if p < 0:
+        return
     body_count = manifolds.body_count
     if sweep > 0 and untouched(manifolds, work.stamp, c, sweep):
         return
@@ -318,10 +322,14 @@ def collide_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep
 
 
 @wp.kernel
-def prepare_rows(row_ids: wp.array(dtype=wp.vec2i), body_count: int, end: Any, rows: Any, mass: Any, work: Any):
+def prepare_rows(row_ids: wp.array(dtype=wp.vec2i), count: wp.array(dtype=wp.int32), body_count: int, end: Any,
+                 rows: Any, mass: Any, work: Any):
     """Per row, what the resting solve keeps fixed: the levers at the end poses, a tangent basis (tangent1 along
-    the sliding velocity, if any), and the effective masses along n and the tangents (Box2D's contact points)."""
+    the sliding velocity, if any), and the effective masses along n and the tangents (Box2D's contact points);
+    count[0]: the rows (the contacts found)."""
     k = wp.tid()
+    if beyond(count, k, row_ids.shape[0]):
+        return
     pair = row_ids[k]
     r1, r2 = contact_levers(pair, body_count, end.q, rows, k)
     n = rows.normal[k]
@@ -345,9 +353,9 @@ def prepare_rows(row_ids: wp.array(dtype=wp.vec2i), body_count: int, end: Any, r
 
 
 @wp.kernel
-def warm_start_manifolds(manifolds: ManifoldSet, first: int, rows: Any, mass: Any, work: Any):
+def warm_start_manifolds(manifolds: ManifoldSet, colour: int, rows: Any, mass: Any, work: Any):
     """Apply last step's impulses of the same contacts (warm starting) over one colour of manifolds."""
-    c, last = manifold_rows(manifolds, first, wp.tid())
+    _p, c, last = manifold_rows(manifolds, colour, wp.tid())
     for k in range(c, last):
         apply_pair_impulse(manifolds.row_ids[k], manifolds.body_count, work, mass, rows.lever1[k], rows.lever2[k],
                            rows.normal[k] * rows.impulse_n[k] + rows.impulse_t[k])
@@ -387,7 +395,7 @@ def solve_row(pair: wp.vec2i, body_count: int, rows: Any, mass: Any, work: Any, 
 
 
 @wp.kernel
-def solve_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep: int, tolerance: Any, rows: Any,
+def solve_manifolds(manifolds: ManifoldSet, colour: int, iterations: int, sweep: int, tolerance: Any, rows: Any,
                     mass: Any, work: Any):
     """One sweep of resting and sliding contact over one colour of manifolds: sequential impulses
     (``solve_row``) toward a normal velocity of at least min_normal_speed at the end of the step, the
@@ -396,8 +404,9 @@ def solve_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep: 
     a contact's velocity by more than ``tolerance`` [m/s]. A manifold whose last update changed no velocity by
     more than a hundredth of the tolerance, and whose bodies no such update has changed since, is skipped
     (``sweep`` numbers the sweeps; work.stamp)."""
-    c, last = manifold_rows(manifolds, first, wp.tid())
-    p = manifolds.order[first + wp.tid()]
+    p, c, last = manifold_rows(manifolds, colour, wp.tid())
+    if p < 0:
+        return
     if manifolds.quiet[p] == 1 and untouched(manifolds, work.stamp, c, sweep):
         return
     largest = type(tolerance)(0.0)
@@ -438,10 +447,12 @@ def first_slot(geoms: Geoms, pair: wp.vec2i, anchor1: Any, table: Any):
 
 
 @wp.kernel
-def remember_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows_of: wp.array(dtype=wp.int32), rows: Any,
-                      table: Any):
+def remember_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), count: wp.array(dtype=wp.int32),
+                      rows_of: wp.array(dtype=wp.int32), rows: Any, table: Any):
     """Store each contact's accumulated impulses (contact c's row rows_of[c]) in an open-addressing table (capacity a
     power of two)."""
+    if beyond(count, wp.tid(), ids.shape[0]):
+        return
     c = rows_of[wp.tid()]
     pair = ids[wp.tid()]
     cell, mask, slot = first_slot(geoms, pair, rows.anchor1[c], table)
@@ -456,10 +467,12 @@ def remember_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows_of: wp.a
 
 
 @wp.kernel
-def recall_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), rows_of: wp.array(dtype=wp.int32), rows: Any,
-                    table: Any):
+def recall_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), count: wp.array(dtype=wp.int32),
+                    rows_of: wp.array(dtype=wp.int32), rows: Any, table: Any):
     """Start each contact (contact c's row rows_of[c]) from last step's impulses of the same contact (each stored
     entry used once), friction projected onto the new tangent plane."""
+    if beyond(count, wp.tid(), ids.shape[0]):
+        return
     c = rows_of[wp.tid()]
     pair = ids[wp.tid()]
     cell, mask, slot = first_slot(geoms, pair, rows.anchor1[c], table)
@@ -511,7 +524,7 @@ def finish_response(h: Any, position_response: Any, mass: Any, collided: Any, wo
 
 
 @wp.kernel
-def project_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep: int, rows: Any, mass: Any,
+def project_manifolds(manifolds: ManifoldSet, colour: int, iterations: int, sweep: int, rows: Any, mass: Any,
                       slop: Any, relax: Any, end: Any, stamp: wp.array(dtype=wp.int32)):
     """One sweep of the position projection over one colour of manifolds: push overlapping bodies apart along
     the contact normals, ``relax`` of the way to within ``slop`` [m] of touching, positions only (velocities
@@ -519,8 +532,9 @@ def project_manifolds(manifolds: ManifoldSet, first: int, iterations: int, sweep
     until none is deeper than ``slop``. A manifold that found nothing to push last time, and whose bodies no
     push has moved since (``sweep`` numbers the sweeps; stamp: per body, the last sweep that moved it), is
     skipped (exact)."""
-    c0, last = manifold_rows(manifolds, first, wp.tid())
-    p = manifolds.order[first + wp.tid()]
+    p, c0, last = manifold_rows(manifolds, colour, wp.tid())
+    if p < 0:
+        return
     if manifolds.quiet[p] == 1 and untouched(manifolds, stamp, c0, sweep):
         return
     body_count = manifolds.body_count

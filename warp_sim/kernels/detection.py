@@ -77,6 +77,14 @@ def is_body(g: int, body_count: int):
 
 
 @wp.func
+def beyond(count: wp.array(dtype=wp.int32), i: int, capacity: int):
+    """Whether entry i lies past what a growable buffer holds: its count (count[0], which may exceed the
+    capacity when the buffer overflowed) or its capacity. A launch over the capacity (a captured step, whose
+    thread count is fixed when recorded) exits early there; a launch over the count never does."""
+    return i >= wp.min(count[0], capacity)
+
+
+@wp.func
 def emit(buf: ContactBuffer, pair: int, body_count: int, id1: int, id2: int, n: wp.vec3f, p1: wp.vec3f, r1: float,
          p2: wp.vec3f, r2: float):
     """Append a contact of candidate pair ``pair`` pushing id1 along +n away from id2, stored with a body first."""
@@ -362,6 +370,8 @@ def narrow_phase(pairs: ContactBuffer, geoms: Geoms, max_reach: wp.array(dtype=w
     margin plus how far the bodies can move over the step, so nothing passes through in one step; against a
     static, plus the largest travel of any body, as in find_pairs)."""
     p = wp.tid()
+    if beyond(pairs.count, p, pairs.ids.shape[0]):
+        return
     a = pairs.ids[p][0]
     b = pairs.ids[p][1]
     reach_a = geoms.reach[a] - geoms.bound[a]

@@ -16,7 +16,7 @@ arguments may change between releases. ``__all__`` is empty.
 """
 import warp as wp
 
-from .detection import is_body
+from .detection import ContactBuffer, beyond, is_body
 
 wp.set_module_options({"enable_backward": False})  # forward simulation only: no adjoint kernels to compile
 
@@ -32,22 +32,28 @@ UNCOLOURED = wp.constant(-2)
 class ManifoldSet:
     """The manifolds of a step: pair p owns rows offsets[p] .. offsets[p] + counts[p]; row_ids: each row's
     bodies in the order its normal refers to (the narrow phase may write a pair either way round); order lists
-    the manifolds colour by colour (a colour's launch reads order[first + thread])."""
+    the manifolds colour by colour: colour k's sizes[k] manifolds from order[starts[k]] on (the launch for colour k
+    runs at least that many threads; the rest exit)."""
 
     row_ids: wp.array(dtype=wp.vec2i)
     offsets: wp.array(dtype=wp.int32)
     counts: wp.array(dtype=wp.int32)
     order: wp.array(dtype=wp.int32)
     quiet: wp.array(dtype=wp.int32)          # per pair: 1 once a resting sweep left it converged
+    starts: wp.array(dtype=wp.int32)         # per colour: its first place in order
+    sizes: wp.array(dtype=wp.int32)          # per colour: its manifolds
     body_count: int
 
 
 @wp.func
-def manifold_rows(m: ManifoldSet, first: int, thread: int):
-    """(its first row, one past its last row) of the manifold at order[first + thread]."""
-    p = m.order[first + thread]
+def manifold_rows(m: ManifoldSet, colour: int, thread: int):
+    """(its pair, its first row, one past its last row) of the colour's manifold number ``thread``; the pair is
+    -1 past the colour's size (a captured launch runs more threads than the colour has)."""
+    if thread >= m.sizes[colour]:
+        return -1, 0, 0
+    p = m.order[m.starts[colour] + thread]
     start = m.offsets[p]
-    return start, start + m.counts[p]
+    return p, start, start + m.counts[p]
 
 
 @wp.func
@@ -71,17 +77,22 @@ def touch(m: ManifoldSet, stamp: wp.array(dtype=wp.int32), row: int, sweep: int)
 
 
 @wp.kernel
-def count_pair_contacts(contact_pair: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32)):
-    """counts[p]: the contacts of candidate pair p (zeroed beforehand)."""
+def count_pair_contacts(contact_pair: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
+                        counts: wp.array(dtype=wp.int32)):
+    """counts[p]: the contacts of candidate pair p (zeroed beforehand); count[0]: the contacts found."""
     c = wp.tid()
+    if beyond(count, c, contact_pair.shape[0]):
+        return
     wp.atomic_add(counts, contact_pair[c], 1)
 
 
 @wp.kernel
-def sort_by_pair(contact_pair: wp.array(dtype=wp.int32), offsets: wp.array(dtype=wp.int32),
-                 cursor: wp.array(dtype=wp.int32), slot: wp.array(dtype=wp.int32)):
+def sort_by_pair(contact_pair: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
+                 offsets: wp.array(dtype=wp.int32), cursor: wp.array(dtype=wp.int32), slot: wp.array(dtype=wp.int32)):
     """slot[c]: contact c's row, its pair's rows being offsets[p] (an exclusive scan of the counts) onward."""
     c = wp.tid()
+    if beyond(count, c, contact_pair.shape[0]):
+        return
     p = contact_pair[c]
     slot[c] = offsets[p] + wp.atomic_add(cursor, p, 1)
 
@@ -157,3 +168,45 @@ def order_by_colour(colour: wp.array(dtype=wp.int32), starts: wp.array(dtype=wp.
     k = colour[p]
     if k >= 0:
         order[starts[k] + wp.atomic_add(cursor, k, 1)] = p
+
+
+@wp.kernel
+def sizes_in_order(sizes: wp.array(dtype=wp.int32), solve_order: wp.array(dtype=wp.int32),
+                   ordered: wp.array(dtype=wp.int32)):
+    """ordered[k]: the size of the colour solved k-th (solve_order[k]), for the scan that places the colours."""
+    k = wp.tid()
+    ordered[k] = sizes[solve_order[k]]
+
+
+@wp.kernel
+def place_colours(solve_order: wp.array(dtype=wp.int32), firsts: wp.array(dtype=wp.int32),
+                  starts: wp.array(dtype=wp.int32)):
+    """starts[colour]: its first place in the order (firsts: the exclusive scan of the sizes in solve order)."""
+    k = wp.tid()
+    starts[solve_order[k]] = firsts[k]
+
+
+@wp.kernel
+def check_colours(sizes: wp.array(dtype=wp.int32), threads: wp.array(dtype=wp.int32),
+                  flags: wp.array(dtype=wp.int32)):
+    """A captured step: flags[0] counts the colours with more manifolds than their recorded launches have threads
+    (threads[k]; 0 for a colour the recording did not launch)."""
+    k = wp.tid()
+    if sizes[k] > threads[k]:
+        wp.atomic_add(flags, 0, 1)
+
+
+@wp.kernel
+def gate_response(pairs: ContactBuffer, contacts: ContactBuffer, left: wp.array(dtype=wp.int32),
+                  impacts: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32)):
+    """A captured step's gates, one thread: flags[0] (the colours too large, from check_colours) becomes 1 if the
+    recorded launches missed anything (a buffer over its capacity, manifolds left uncoloured after the recorded
+    rounds, a colour too large), else 0; flags[1]: respond (nothing missed, some contact); flags[2]: collide
+    (respond, and an impact); flags[3]: keep (nothing missed: the warm start may be rewritten)."""
+    missed = flags[0] > 0 or pairs.count[0] > pairs.ids.shape[0] or contacts.count[0] > contacts.ids.shape[0]
+    missed = missed or left[0] > 0
+    respond = not missed and contacts.count[0] > 0
+    flags[0] = wp.where(missed, 1, 0)
+    flags[1] = wp.where(respond, 1, 0)
+    flags[2] = wp.where(respond and impacts[0] > 0, 1, 0)
+    flags[3] = wp.where(missed, 0, 1)

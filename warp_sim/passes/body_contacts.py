@@ -58,6 +58,7 @@ class BodyContacts(Pass):
     """
 
     kernels = ("contacts", "detection", "manifolds", "rigid")
+    capturable = True   # captured steps launch over the capacities, gated on the device (replay_held)
 
     persistent = ("_capacity", "table.used", "table.keys", "table.cells", "table.n", "table.t")   # the warm start
 
@@ -119,70 +120,101 @@ class BodyContacts(Pass):
                     bytes=d.pairs.nbytes + d.contacts.nbytes + self._capacity * per_contact)
 
     def apply(self, start: State, end: State, t: float, h: float) -> None:
-        """Detect over the step from ``start`` to ``end`` (h seconds) and correct ``end`` in place."""
+        """Detect over the step from ``start`` to ``end`` (h seconds) and correct ``end`` in place.
+
+        While a step is captured (core.capture) nothing is read back: the launches run over the buffers'
+        capacities and the last uncaptured colouring's colours, and the response runs only where the device's
+        gates say that they held everything (``replay_held``); a step whose launches missed something leaves
+        ``end`` as the solver wrote it and the warm start as it was, and is done again uncaptured."""
         m = self.model
+        capturing = m.launcher.capturing
         count = self.detection.detect(start, end)
         if count == 0:
             self.table.used.zero_()   # nothing to warm-start from next step
             return
-        self._ensure(count)
+        self._ensure(self.detection.contacts.capacity)
+        threads = self.detection.contacts.capacity if capturing else count
         T = m.scalar
         gravity = m.gravity_magnitude
         bounce = self.bounce_speed if self.bounce_speed is not None else max(2.0 * gravity * h, 1e-6)
         B = m.body_count
-        c = self.detection.contacts.buffer
+        contacts = self.detection.contacts
+        c = contacts.buffer
         rows, work, table, geoms = self.rows, self.work, self.table, self.geometry.geoms
         mass = m.body_mass
         manifolds = self.manifolds
         manifolds.sort()
         slot = manifolds.slot
         m.launch(contact_kernels.load_velocities, B, [end.bodies, mass, work])
-        m.launch(contact_kernels.prepare_contacts, count, [c, slot, manifolds.row_ids, geoms, start.bodies,
-                                                           end.bodies, mass, T(h), T(bounce), T(self.slop), rows,
-                                                           work, manifolds.impacts])
-        m.launch(contact_kernels.recall_impulses, count, [geoms, c.ids, slot, rows, table])
-        colours, impacts = manifolds.colour()
+        m.launch(contact_kernels.prepare_contacts, threads, [c, slot, manifolds.row_ids, geoms, start.bodies,
+                                                             end.bodies, mass, T(h), T(bounce), T(self.slop), rows,
+                                                             work, manifolds.impacts])
+        colours, body_colours, impacts = manifolds.colour()
         (collision_sweeps, contact_sweeps, position_sweeps), (collision_iterations, contact_iterations,
                                                               position_iterations) = self.sweeps, self.iterations
-        if impacts:
-            collide = m.launcher.prepare(contact_kernels.collide_manifolds, 1, [
+
+        def collide():
+            prepared = m.launcher.prepare(contact_kernels.collide_manifolds, 1, [
                 manifolds.set, 0, collision_iterations, 0, T(h), start.bodies, end.bodies, rows, mass, work,
                 T(bounce)])
             for sweep in range(collision_sweeps):
-                collide.set(3, sweep)
-                self._sweep(collide, colours, 1)
-        wp.copy(self.collided.v, work.v)
-        wp.copy(self.collided.w, work.w)
-        m.launch(contact_kernels.prepare_rows, count, [manifolds.row_ids, B, end.bodies, rows, mass, work])
-        self._sweep(m.launcher.prepare(contact_kernels.warm_start_manifolds, 1, [
-            manifolds.set, 0, rows, mass, work]), colours, 1)
-        solve = m.launcher.prepare(contact_kernels.solve_manifolds, 1, [
-            manifolds.set, 0, contact_iterations, 0, T(self.tolerance), rows, mass, work])
-        for sweep in range(contact_sweeps):   # numbered after the collision sweeps, whose stamps they follow
-            solve.set(3, collision_sweeps + 1 + sweep)
-            self._sweep(solve, colours, 1)
-        table.used.zero_()
-        m.launch(contact_kernels.remember_impulses, count, [geoms, c.ids, slot, rows, table])
-        m.launch(contact_kernels.finish_response, B, [T(h), T(self.position_response), mass, self.collided, work,
-                                                      end.bodies])
-        # positions: the body-body colours relaxed, the static ones in full, last
-        body_colours = manifolds.body_colours
-        project = m.launcher.prepare(contact_kernels.project_manifolds, 1, [
-            manifolds.set, 0, position_iterations, 0, rows, mass, T(self.slop), T(self.relax), end.bodies,
-            work.stamp])
-        relax, full = T(self.relax), T(1.0)
-        manifolds.quiet.zero_()      # every manifold is looked at in the first position sweep
-        work.stamp.fill_(-1)
-        for sweep in range(position_sweeps):
-            project.set(3, sweep)
-            project.set(7, relax)
-            self._sweep(project, colours[:body_colours], 1)
-            project.set(7, full)
-            self._sweep(project, colours[body_colours:], 1)
+                prepared.set(3, sweep)
+                self._sweep(prepared, colours, 1)
+
+        def respond():   # the warm start is read here, after the gates: a missed step must leave it as it was
+            m.launch(contact_kernels.recall_impulses, threads, [geoms, c.ids, c.count, slot, rows, table])
+            wp.copy(self.collided.v, work.v)
+            wp.copy(self.collided.w, work.w)
+            m.launch(contact_kernels.prepare_rows, threads, [manifolds.row_ids, c.count, B, end.bodies, rows, mass,
+                                                             work])
+            self._sweep(m.launcher.prepare(contact_kernels.warm_start_manifolds, 1, [
+                manifolds.set, 0, rows, mass, work]), colours, 1)
+            solve = m.launcher.prepare(contact_kernels.solve_manifolds, 1, [
+                manifolds.set, 0, contact_iterations, 0, T(self.tolerance), rows, mass, work])
+            for sweep in range(contact_sweeps):   # numbered after the collision sweeps, whose stamps they follow
+                solve.set(3, collision_sweeps + 1 + sweep)
+                self._sweep(solve, colours, 1)
+            m.launch(contact_kernels.finish_response, B, [T(h), T(self.position_response), mass, self.collided,
+                                                          work, end.bodies])
+            # positions: the body-body colours relaxed, the static ones in full, last
+            project = m.launcher.prepare(contact_kernels.project_manifolds, 1, [
+                manifolds.set, 0, position_iterations, 0, rows, mass, T(self.slop), T(self.relax), end.bodies,
+                work.stamp])
+            relax, full = T(self.relax), T(1.0)
+            manifolds.quiet.zero_()      # every manifold is looked at in the first position sweep
+            work.stamp.fill_(-1)
+            for sweep in range(position_sweeps):
+                project.set(3, sweep)
+                project.set(7, relax)
+                self._sweep(project, colours[:body_colours], 1)
+                project.set(7, full)
+                self._sweep(project, colours[body_colours:], 1)
+
+        def remember():   # this step's impulses, for the next step's warm start
+            table.used.zero_()
+            m.launch(contact_kernels.remember_impulses, threads, [geoms, c.ids, c.count, slot, rows, table])
+
+        if not capturing:
+            if impacts:
+                collide()
+            respond()
+            remember()
+            return
+        wp.capture_if(manifolds.collide, on_true=collide)
+        wp.capture_if(manifolds.respond, on_true=respond)
+        wp.capture_if(manifolds.keep, on_true=remember)
+
+    def before_capture(self) -> None:
+        self.manifolds.before_capture()
+
+    def replay_held(self) -> bool:
+        """After a captured step's replay: whether its launches held all of it (no buffer over its capacity, no
+        colour over its threads; one int read back). False: the step must be done again, uncaptured."""
+        return int(self.manifolds.missed.numpy()[0]) == 0
 
     @staticmethod
     def _sweep(prepared, colours: list[tuple[int, int]], sweeps: int) -> None:
         """``sweeps`` Gauss-Seidel sweeps of a prepared manifold kernel: one launch per colour, a thread per manifold
-        (input 1 of the kernel is the colour's first manifold in the order)."""
+        (input 1 of the kernel is the colour; it launches at least as many threads as the colour has manifolds)."""
         if colours:
             prepared.sweep(1, colours, sweeps)
