@@ -25,7 +25,9 @@ colour of one manifold is one thread), and the pile's state at the end (highest 
 deepest ground penetration, bodies whose centre is below the ground). The contact solve's
 share is that of SOLVE_KERNELS in the profiled kernels' time.
 Then --profile-steps more steps with every launch synchronised and timed on its own
-(common.KernelProfile; the simulator is made inside it with profiling off until then).
+(common.KernelProfile; the simulator is made inside it with profiling off until then), and the host's
+share of a step, uncaptured and with ``capture=True`` (a second simulator, same settle and timed steps;
+``host_shares``: 1 - the kernels' time over the step's time).
 
 Optional peer: Newton's SolverSemiImplicit (penalty contacts) on the same pile, on the same
 device, same dt, same settle and timed steps, when ``import newton`` works; otherwise its
@@ -52,6 +54,7 @@ from common import KernelProfile, device_name, markdown, pick_device, time_steps
 from rigid import KERNEL_LABELS as SOLVER_KERNELS
 
 import warp_sim as ws
+from warp_sim.kernels import manifolds as manifold_kernels
 from warp_sim.studies import contact_scenes
 from warp_sim.util.rotations import quat_to_matrix
 
@@ -261,6 +264,8 @@ def bench_size(n: int, device, args, newton) -> dict:
                   contact_stats=stats, pile=pile, profile_steps=profile_steps, kernels_per_step=kernels,
                   launches_per_step=launches_per_step, single_thread_launches_per_step=single_per_step,
                   contact_solve_share=solve_share, simulated_s=sim.time)
+    if kernels:
+        result["host"] = host_shares(sim, profile, kernels, result, scene, args, settle_steps)
     del sim
     if newton is not None:
         print("  Newton ...", flush=True)
@@ -268,6 +273,44 @@ def bench_size(n: int, device, args, newton) -> dict:
         if "steps_per_s" in result["newton"]:
             result["warp_sim_over_newton"] = rate / result["newton"]["steps_per_s"]
     return result
+
+
+def launch_timing_cost(sim: ws.Simulator, profile: KernelProfile, launches: int = 2000) -> float:
+    """Seconds the profile itself adds to each launch it times (the synchronisations and the clock): a one-thread
+    kernel that does nothing useful, launched through the same launcher and profile."""
+    profile.stats.clear()
+    flags = wp.zeros(4, dtype=wp.int32, device=sim.device)
+    profile.enabled = True
+    for _ in range(launches):
+        sim.model.launch(manifold_kernels.check_colours, 1, [flags, flags, flags])
+    profile.enabled = False
+    count, seconds, _ = profile.stats.pop("check_colours")
+    return seconds / count
+
+
+def host_shares(sim: ws.Simulator, profile: KernelProfile, kernels: dict, result: dict, scene: ws.Scene, args,
+                settle_steps: int) -> dict:
+    """The host's share of a step, uncaptured and captured: 1 - (the kernels' time) / (the step's time). The
+    kernels' time is the profile's sum less what its own timing adds per launch (launch_timing_cost), and it
+    still holds each launch's call into the kernel. The captured simulator (capture=True) runs the same settle
+    and timed steps; its misses are the steps done again uncaptured (a buffer or colouring outgrew the graph)."""
+    cost = launch_timing_cost(sim, profile)
+    launches = sum(k["launches"] for k in kernels.values())
+    kernel_s = sum(k["ms"] for k in kernels.values()) / 1e3 - launches * cost
+    captured = ws.Simulator(scene, integrator="symplectic_euler", device=sim.device.alias, capture=True)
+    time_steps(captured, settle_steps, args.dt)
+    graphs = captured._graphs
+    missed, recorded = graphs.missed, graphs.recorded
+    seconds = time_steps(captured, args.steps, args.dt)
+    step_s = seconds / args.steps
+    out = dict(kernel_ms_per_step=kernel_s * 1e3, timing_cost_us_per_launch=cost * 1e6,
+               uncaptured_share=1.0 - kernel_s / (result["ms_per_step"] / 1e3), captured_steps_per_s=1.0 / step_s,
+               captured_ms_per_step=step_s * 1e3, captured_share=1.0 - kernel_s / step_s,
+               captured_misses=graphs.missed - missed, captured_recorded=graphs.recorded - recorded)
+    print(f"  captured: {out['captured_steps_per_s']:.1f} steps/s ({out['captured_misses']} of {args.steps} steps "
+          f"missed); host share {100 * out['uncaptured_share']:.0f} % uncaptured, "
+          f"{100 * out['captured_share']:.0f} % captured", flush=True)
+    return out
 
 
 def newton_cells(result: dict, status: str) -> list[str]:
@@ -279,7 +322,7 @@ def newton_cells(result: dict, status: str) -> list[str]:
 
 
 def tables(device_alias: str, results: list[dict], newton_status: str) -> str:
-    rows, build_rows, pile_rows, kernel_rows = [], [], [], []
+    rows, build_rows, pile_rows, kernel_rows, host_rows = [], [], [], [], []
     for r in results:
         n = f"{r['bodies']:,}"
         settle = (f"{r['settle_s']:.2f} ({1e3 * r['settle_s'] / r['settle_steps']:.1f})" if "settle_s" in r
@@ -302,6 +345,12 @@ def tables(device_alias: str, results: list[dict], newton_status: str) -> str:
             pile_rows.append([n, label, f"{p['max_speed']:.3f}", f"{p['lowest_point'] * 1e3:.2f}",
                               f"{p['centres_below_ground']}", f"{p['highest_centre']:.2f}",
                               f"{p['max_horizontal']:.2f}", "yes" if p["finite"] else "NO"])
+        if "host" in r:
+            h = r["host"]
+            host_rows.append([n, f"{r['steps_per_s']:.1f}", f"{h['captured_steps_per_s']:.1f}",
+                              f"{h['captured_steps_per_s'] / r['steps_per_s']:.2f}x", f"{h['captured_misses']}",
+                              f"{h['kernel_ms_per_step']:.3f}", f"{100 * h['uncaptured_share']:.0f} %",
+                              f"{100 * h['captured_share']:.0f} %"])
         kernels = r["kernels_per_step"]
         if kernels:
             solver = sum(k["ms"] for key, k in kernels.items() if key not in CONTACT_KERNELS)
@@ -318,6 +367,9 @@ def tables(device_alias: str, results: list[dict], newton_status: str) -> str:
                     build_rows, left=("lattice (x, y, z)",)),
            markdown(["N", "when", "max speed m/s", "lowest point mm", "centres below ground", "highest centre m",
                      "max distance from axis m", "finite"], pile_rows, left=("when", "finite")) if pile_rows else ""]
+    if host_rows:
+        out.append(markdown(["N", "steps/s", "captured steps/s", "captured / uncaptured", "captured misses",
+                             "kernels ms/step", "host share", "host share, captured"], host_rows, left=()))
     if kernel_rows:
         out.append(markdown(["N"] + list(CONTACT_KERNELS.values()) + [f"solver + guard ({solver_labels})", "sum",
                                                                       "timed ms/step"], kernel_rows, left=()))

@@ -143,6 +143,34 @@ def test_resume_without_a_checkpoint_starts_over_and_keep_checkpoint_keeps_it(tm
         ws.Simulator(springs_scene()).run(0.5, resume=True, progress=False)
 
 
+@pytest.mark.parametrize("landed", [True, False])
+def test_a_signal_while_a_checkpoint_is_written_keeps_the_one_in_place(tmp_path, monkeypatch, landed):
+    """Ctrl-C inside the checkpoint's write, after the new file is renamed into place (landed) or before: the run
+    keeps whichever checkpoint is on disk and says how many frames it holds (the new 20 or the last 10), so a
+    resume goes on from it. (A real process hit this: SIGINT right after the file appeared left nothing.)"""
+    real, calls = RunFolder.save_checkpoint, []
+
+    def save_checkpoint(self, arrays, meta):
+        calls.append(meta["frames"])
+        if len(calls) == 2:
+            if landed:
+                real(self, arrays, meta)
+            raise KeyboardInterrupt
+        real(self, arrays, meta)
+    monkeypatch.setattr(RunFolder, "save_checkpoint", save_checkpoint)
+    out = tmp_path / "out.usdc"
+    with pytest.raises(KeyboardInterrupt) as stopped:
+        ws.Simulator(springs_scene()).run(1.0, 60, usd=out, progress=False, chunk_frames=10)
+    assert calls == [10, 20] and stopped.value.frames_checkpointed == (20 if landed else 10)
+    folders = strays(out)
+    assert len(folders) == 1 and RunFolder(folders[0]).load_checkpoint()[1]["frames"] == (20 if landed else 10)
+    monkeypatch.undo()
+    reference = ws.Simulator(springs_scene()).run(1.0, 60, usd=tmp_path / "whole.usdc", progress=False,
+                                                  chunk_frames=10)
+    assert ws.Simulator(springs_scene()).run(1.0, 60, usd=out, progress=False, chunk_frames=10, resume=True) == out
+    assert_same_samples(out, reference)
+
+
 # ---- a real process, killed -------------------------------------------------------------------------------------
 
 DEMO = ["demo", "--seconds", "2", "--chunk-frames", "20", "--no-progress"]

@@ -65,10 +65,12 @@ class Simulator(Persistent):
     fused: take the fused step where the scene has one (particles and cloth under symplectic_euler, with their
         plane impulses and guard in one launch; ``sim.fused`` is it, or None), the same states bit for bit as
         the generic path; False: always the generic path
-    capture: record each step as a Warp graph on its first use (per step size) and replay it (core.capture: CUDA
-        graphs, Warp's API capture on the CPU), where every part of the scene allows it (``sim.captured``): fixed-step
-        solvers, particles, cloth, bodies without contacts, planes, time-independent fields; otherwise a warning
-        names the parts that do not, and it runs uncaptured
+    capture: record each step (each piece of it) as a Warp graph on its first use (per step size) and replay it
+        (core.capture: CUDA graphs, Warp's API capture on the CPU), where every part of the scene allows it
+        (``sim.captured``): fixed-step solvers, particles, cloth, bodies and their impulse contacts, planes,
+        time-independent fields; the same states bit for bit. A step whose contacts outgrow the recorded launches is
+        done again uncaptured and the graphs recorded afresh. Otherwise a warning names the parts that do not allow
+        it, and it runs uncaptured
 
     With "rk45" each ``step(dt)`` lands exactly on t + dt, taking as many internal steps as the tolerance
     needs (``sim.integrator.stats()`` counts them), so ``run(..., substeps=1)`` is the natural choice.

@@ -339,11 +339,13 @@ def box_box(geoms: Geoms, a: int, b: int, margin: float, buf: ContactBuffer, pai
                     edge_axis = axis
                     edge_i = i
                     edge_j = j
-    if edge_i < 0:
-        if best_axis < 3:
-            box_face_contacts(geoms, a, b, best_axis, margin, buf, pair)
-        else:
-            box_face_contacts(geoms, b, a, best_axis - 3, margin, buf, pair)
+    if edge_i < 0:   # a face of a (best_axis < 3) or of b is the reference face
+        ref = a
+        inc = b
+        if best_axis >= 3:
+            ref = b
+            inc = a
+        box_face_contacts(geoms, ref, inc, best_axis % 3, margin, buf, pair)
         return
     # edge against edge: the supporting edges of a and b along the axis from a to b
     L = edge_axis
@@ -387,16 +389,21 @@ def narrow_phase(pairs: ContactBuffer, geoms: Geoms, max_reach: wp.array(dtype=w
     kb = geoms.kind[b]
     if ka == BOX and kb == BOX:
         box_box(geoms, a, b, pair_margin, contacts, p)
-    elif ka == SPHERE:
-        samples_against_shape(geoms, a, b, pair_margin, contacts, p)
-    elif kb == SPHERE:
-        samples_against_shape(geoms, b, a, pair_margin, contacts, p)
+        return
+    # a sphere's centre against the other shape; otherwise the samples of each against the other (a static
+    # mesh by its vertices). One call site per function: each is compiled once (a cold start compiles less)
+    first = a
+    second = b
+    if ka != SPHERE and kb == SPHERE:
+        first = b
+        second = a
+    samples_against_shape(geoms, first, second, pair_margin, contacts, p)
+    if ka == SPHERE or kb == SPHERE:
+        return
+    if kb == MESH and not is_body(b, geoms.body_count):
+        mesh_vertices_against_shape(geoms, b, a, pair_margin, contacts, p)
     else:
-        samples_against_shape(geoms, a, b, pair_margin, contacts, p)
-        if kb == MESH and not is_body(b, geoms.body_count):
-            mesh_vertices_against_shape(geoms, b, a, pair_margin, contacts, p)
-        else:
-            samples_against_shape(geoms, b, a, pair_margin, contacts, p)
+        samples_against_shape(geoms, b, a, pair_margin, contacts, p)
 
 
 register(globals())

@@ -126,6 +126,7 @@ class StageWriter:
             except OSError as error:
                 raise OSError(f"cannot write {str(path)!r}: {error.strerror or error}") from None
         self._checkpointed = self._frames
+        self._saving = False
         self._stage = Usd.Stage.CreateInMemory(f"anon{self._path.suffix}")
         self._define()
 
@@ -331,11 +332,13 @@ class StageWriter:
         self._check_open()
         require(self._frames % self._chunk_frames == 0 and self._frames > 0,
                 f"checkpoint(): {self._frames} frames are not a whole number of chunks of {self._chunk_frames}")
+        self._saving = True   # a signal from here to the end may find either checkpoint in place (suspend)
         try:
             self._run.save_checkpoint(arrays, {"key": self._key, "frames": self._frames, "values": values})
         except OSError as error:
             raise self._cannot_write(error) from None
         self._checkpointed = self._frames
+        self._saving = False
 
     @property
     def frames_checkpointed(self) -> int:
@@ -370,6 +373,10 @@ class StageWriter:
         """Stop without a stage, keeping the run's folder if it holds a checkpoint (a later writer with
         ``resume=True`` goes on from it); returns the frames it holds (0: nothing was kept). No-op once closed."""
         self._stage = None
+        if self._saving:   # stopped while a checkpoint was written: the one in place (the last or the new) is whole
+            loaded = self._run.load_checkpoint()
+            self._checkpointed = int(loaded[1]["frames"]) if loaded is not None else 0
+            self._saving = False
         if self._checkpointed == 0:
             self._run.remove()
         return self._checkpointed
