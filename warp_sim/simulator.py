@@ -276,22 +276,26 @@ class Simulator(Persistent):
 
     def _captured_piece(self, piece: float, last: bool) -> None:
         """One piece of ``piece`` seconds from its graph (recorded on first use). Where a pass says the recorded
-        launches did not hold it (contacts or colours outgrew them), the States go back as they were, every graph
-        is dropped and the piece is done uncaptured (which grows them; later pieces record afresh). The first
-        piece, and the first after such a miss, runs uncaptured (core.capture.StepGraphs.primed)."""
+        launches did not hold it (contacts or colours outgrew them), the States go back as they were and the piece
+        is done uncaptured (which grows what was too small); the graphs are kept unless that reallocated a buffer
+        or misses keep coming, and then the next pieces run uncaptured for a while (core.capture.StepGraphs:
+        waiting, as the first piece does) and record afresh."""
         graphs = self._graphs
+        if graphs.waiting:
+            graphs.waiting -= 1
+            self._piece(piece, last)
+            return
         after = self.passes if self.fused is None else self._after_fused
-        if graphs.primed:
-            start, end = self.state, self._next
-            if graphs.step((piece, start is self._first), lambda: self._piece(piece, False),
-                           lambda: [step_pass.before_capture() for step_pass in after]):
-                self.state, self._next = end, start   # a replay: the host side of the piece again
-            if all(step_pass.replay_held() for step_pass in after):
-                return
-            self.state, self._next = start, end   # the piece left start as it was
-            graphs.miss()
+        start, end = self.state, self._next
+        if graphs.step((piece, start is self._first), lambda: self._piece(piece, False),
+                       lambda: any([step_pass.before_capture() for step_pass in after])):
+            self.state, self._next = end, start   # a replay: the host side of the piece again
+        if all(step_pass.replay_held() for step_pass in after):
+            graphs.held()
+            return
+        self.state, self._next = start, end   # the piece left start as it was
         self._piece(piece, last)
-        graphs.primed = True
+        graphs.miss(all(step_pass.capture_intact() for step_pass in after))
 
     def _piece(self, piece: float, last: bool) -> None:
         """One piece of a step, ``piece`` seconds (the last of its step: ``last``), swapping the States."""

@@ -128,27 +128,32 @@ def _assert_same_bodies(a, b):
         np.testing.assert_array_equal(getattr(a.state, name).numpy(), getattr(b.state, name).numpy())
 
 
-@pytest.mark.parametrize("rate", [500.0, 60.0])
-def test_a_captured_pile_equals_the_uncaptured_pile_bit_for_bit_through_its_misses(rate):
-    """The contact pass is captured: launches over the buffers' capacities and the last colouring's colours, gated
-    on the device. Where a step outgrows them (a new colour as bodies land), it is done again uncaptured and the
-    graphs recorded afresh; every step still equals the uncaptured run. At 1/60 s each step is two pieces."""
+@pytest.mark.parametrize("rates", [(500.0,), (60.0,), (500.0, 240.0)])
+def test_a_captured_pile_equals_the_uncaptured_pile_bit_for_bit_through_its_misses(rates):
+    """The contact pass is captured: launches over the last uncaptured counts and colours with headroom, gated on
+    the device. Where a step outgrows them (a new colour as bodies land), it is done again uncaptured and the
+    graphs kept or recorded afresh; every step still equals the uncaptured run. At 1/60 s each step is two pieces;
+    (500, 240): the step size alternates every 50 steps, so graphs of one size are recorded while the other's live."""
     plain = ws.Simulator(_pile(), integrator="symplectic_euler", device="cpu")
     captured = ws.Simulator(_pile(), integrator="symplectic_euler", device="cpu", capture=True)
     assert captured.captured
-    steps = int(2.5 * rate)
+    steps = int(2.5 * max(rates))
+    pieces = 0
     for k in range(steps):
+        rate = rates[(k // 50) % len(rates)]
         plain.step(1.0 / rate)
         captured.step(1.0 / rate)
+        pieces += captured.substeps(1.0 / rate)
         if k % 25 == 0 or k == steps - 1:
             _assert_same_bodies(plain, captured)
     graphs = captured._graphs
-    assert graphs.missed > 0 and graphs.replays > 0.8 * steps * captured.substeps(1.0 / rate)
+    assert graphs.missed > 0 and graphs.replays > 0.5 * pieces   # misses back off: a few hundred pieces uncaptured
     # the bodies landed: no centre nearer the ground than its half size (box 0.1 m, sphere 0.06 m) less 2 mm, and
-    # none moving up or down (the spheres may roll)
+    # no vertical speed above 5 % of the top body's landing speed sqrt(2 g h) (the spheres may roll, a box tip)
     y = captured.state.body_x.numpy()[:, 1]
     assert np.all(y >= np.where(np.arange(y.size) % 2 == 0, 0.1, 0.06) - 2e-3)
-    assert np.abs(captured.body_velocities()[0].numpy()[:, 1]).max() < 0.05
+    landing = np.sqrt(2.0 * 9.81 * (0.2 + 0.25 * (y.size - 1)))
+    assert np.abs(captured.body_velocities()[0].numpy()[:, 1]).max() < 0.05 * landing
 
 
 def test_a_buffer_that_grows_during_a_captured_step_makes_a_new_capture():

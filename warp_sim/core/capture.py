@@ -17,11 +17,18 @@ class StepGraphs:
 
     recorded: graphs recorded so far; replays: steps replayed from a graph; missed: replays whose launches did not
         hold the step (a buffer or colouring outgrew them), each done again uncaptured, after which every graph is
-        recorded afresh; primed: whether a step ran uncaptured since the start or the last miss (the first step
-        runs uncaptured: it allocates what a capture would only record, and sizes the launches of what can grow)
+        recorded afresh once a buffer was reallocated or ``refresh`` misses came since the last recording (until
+        then the graphs are kept and replayed on); waiting: steps still to run uncaptured before the next
+        recording (the first step runs uncaptured: it allocates what a capture would only record, and sizes the
+        launches of what can grow; after graphs are dropped for misses, ``backoff`` steps)
+    backoff: uncaptured steps after graphs are dropped: doubled each time (at most ``longest_backoff``), halved
+        after every ``calm`` replays that held. A recording costs as much as a hundred steps on the CPU (Warp
+        records each launch's arguments in Python), so a scene whose contacts change often (a pile landing) runs
+        mostly uncaptured, and one that settles is captured again.
     """
 
     limit = 8   # graphs kept (distinct step sizes and parities); past it they are dropped and recorded again
+    first_backoff, longest_backoff, calm, refresh = 64, 1024, 1000, 4
 
     def __init__(self, model):
         self.model = model
@@ -29,16 +36,20 @@ class StepGraphs:
         self.recorded = 0
         self.replays = 0
         self.missed = 0
-        self.primed = False
+        self.waiting = 1
+        self.backoff = self.first_backoff
+        self._misses = 0   # since the last recording
 
     def step(self, key, record, prepare) -> bool:
-        """Launch the graph recorded under ``key``; the first time, call ``prepare()``, then record the graph from
-        ``record()`` (which runs the step's host side once, its launches only recorded) and launch it. Returns
-        True for a replay, after which the caller repeats the step's host-side effects (the State swap)."""
+        """Launch the graph recorded under ``key``; the first time, call ``prepare()`` (True: the graphs recorded
+        before are stale, and dropped), then record the graph from ``record()`` (which runs the step's host side
+        once, its launches only recorded) and launch it. Returns True for a replay, after which the caller repeats
+        the step's host-side effects (the State swap)."""
         graph = self.graphs.get(key)
         replay = graph is not None
         if not replay:
-            prepare()
+            if prepare():
+                self.graphs.clear()
             if len(self.graphs) >= self.limit:
                 self.graphs.clear()
             launcher = self.model.launcher
@@ -50,18 +61,29 @@ class StepGraphs:
                 launcher.capturing = False
             graph = self.graphs[key] = capture.graph
             self.recorded += 1
+            self._misses = 0
         else:
             self.replays += 1
         wp.capture_launch(graph)
         return replay
 
+    def held(self) -> None:
+        """A replay's launches held its step (after ``calm`` of them the backoff halves)."""
+        if self.replays % self.calm == 0:
+            self.backoff = max(1, self.backoff // 2)
+
     def invalidate(self) -> None:
         """Drop every graph (an array they launch on was replaced): the next steps record afresh."""
         self.graphs.clear()
 
-    def miss(self) -> None:
-        """A replay's launches did not hold its step: count it and drop every graph (the step done again
-        uncaptured grows what was too small, and changes the launches)."""
+    def miss(self, intact: bool) -> None:
+        """A replay's launches did not hold its step (the caller did it again uncaptured): count it, and drop every
+        graph if a buffer they launch on was reallocated (not ``intact``) or ``refresh`` misses came since the
+        last recording; the next recording then waits ``backoff`` steps."""
         self.missed += 1
-        self.primed = False
+        self._misses += 1
+        if intact and self._misses < self.refresh:
+            return
+        self.waiting = self.backoff
+        self.backoff = min(2 * self.backoff, self.longest_backoff)
         self.invalidate()

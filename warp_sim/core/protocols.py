@@ -100,13 +100,20 @@ class Pass(Persistent):
     def check_step(self, h: float) -> None:
         """Refuse a step of h seconds this pass cannot handle (ValueError); by default accept any."""
 
-    def before_capture(self) -> None:
+    def before_capture(self) -> bool:
         """Before a step is recorded as a graph, outside the capture: allocate or upload what its launches need
-        (a capture records copies and allocations instead of doing them); by default nothing."""
+        (a capture records copies and allocations instead of doing them). Returns True where that changed what
+        graphs recorded earlier read (they are dropped); by default nothing, False."""
+        return False
 
     def replay_held(self) -> bool:
         """After a captured step's replay: whether its recorded launches held the whole step (a pass whose buffers
         can outgrow them says False, and the simulator does the step again uncaptured); by default True."""
+        return True
+
+    def capture_intact(self) -> bool:
+        """After such a step was done again uncaptured: whether the arrays the recorded graphs launch on are still
+        in place (False once a buffer was reallocated: the graphs are dropped); by default True."""
         return True
 
     def apply(self, start: State, end: State, t: float, h: float) -> None:

@@ -14,6 +14,7 @@ import warp as wp
 
 from ..core.model import Model
 from ..kernels import manifolds as manifold_kernels
+from .buffers import launch_threads
 from .detector import Detection
 
 ROUND = 2 * manifold_kernels.COLOURS   # colours of one colouring round, body-body then static
@@ -39,11 +40,7 @@ class ContactManifolds:
     captured step's gates (kernels.manifolds.gate_response)
     """
 
-    #: a captured step's launches: each colour's threads, max(the last uncaptured size times ``headroom``, it plus
-    #: ``spare_threads``), and ``spare_colours`` more colours of each class with ``spare_threads`` threads (a thread
-    #: past a colour's size exits at once: about 0.2 ns on the CPU, while a step that outgrows them is done again
-    #: and its graphs recorded afresh, 40 ms on the CPU for a 100-body pile)
-    headroom, spare_threads, spare_colours = 2, 32, 2
+    spare_colours = 1   # a captured step launches this many unused colours of each class too
 
     def __init__(self, model: Model, detection: Detection):
         self.model = model
@@ -97,6 +94,11 @@ class ContactManifolds:
         self._orders.clear()
         self.set = None
 
+    @property
+    def colour_capacity(self) -> int:
+        """Colours the per-colour arrays hold (they grow with the colouring rounds)."""
+        return self._colour_capacity
+
     def _order(self, rounds: int) -> tuple:
         """(solve order, the sizes in it, their exclusive scan) on the device for ``rounds`` rounds."""
         if rounds not in self._orders:
@@ -111,7 +113,7 @@ class ContactManifolds:
         m, d = self.model, self.detection
         self._ensure()
         contact_pair, found = d.contacts.buffer.pair, d.contacts.count
-        contacts = d.contacts.capacity if m.launcher.capturing else d.count
+        contacts = d.threads()[1]
         self.counts.zero_()
         m.launch(manifold_kernels.count_pair_contacts, contacts, [contact_pair, found, self.counts])
         wp.utils.array_scan(self.counts, self.offsets, inclusive=False)
@@ -128,7 +130,7 @@ class ContactManifolds:
         is done again, uncaptured)."""
         m, d = self.model, self.detection
         capturing = m.launcher.capturing
-        pairs = d.pairs.capacity if capturing else d.pair_count
+        pairs = d.threads()[0]
         self.colours_of.fill_(manifold_kernels.UNCOLOURED)
         rounds = 0
         while True:
@@ -162,8 +164,8 @@ class ContactManifolds:
         if capturing:
             self.flags.zero_()
             m.launch(manifold_kernels.check_colours, self._colour_capacity, [self.sizes, self.threads, self.flags])
-            m.launch(manifold_kernels.gate_response, 1, [d.pairs.buffer, d.contacts.buffer, self.overflow,
-                                                        self.impacts, self.flags])
+            m.launch(manifold_kernels.gate_response, 1, [d.pairs.buffer, d.contacts.buffer, *d.captured,
+                                                        self.overflow, self.impacts, self.flags])
             return self._captured, self._captured_body_colours, None
         self.rounds = rounds
         index = solve_order(rounds)
@@ -174,15 +176,16 @@ class ContactManifolds:
         self._captured = None   # a captured step after this one launches for this colouring
         return self.colours, self.body_colours, int(tally[-1])
 
-    def before_capture(self) -> None:
+    def before_capture(self) -> bool:
         """Before a step is recorded (outside the capture, which must not allocate or copy from the host): the
         arrays for the capacities and the solve order of the rounds, and a captured step's colours: those of the
-        last uncaptured colouring and spare ones, with their threads (``headroom``), and ``threads``, their thread
-        counts by colour (for check_colours)."""
+        last uncaptured colouring and ``spare_colours`` more, with their threads (buffers.launch_threads), and
+        ``threads``, their thread counts by colour (for check_colours). Returns True where these are new (graphs
+        recorded before read ``threads`` for other launches: they must be dropped)."""
         self._ensure()
         self._order(self.rounds)
         if self._captured is not None:
-            return
+            return False
         body, static = list(self.colours[:self.body_colours]), list(self.colours[self.body_colours:])
         colours = manifold_kernels.COLOURS
         top = (self.rounds - 1) * ROUND
@@ -191,9 +194,10 @@ class ContactManifolds:
             group += [(k, 0) for k in range(first, first + colours) if k not in used][:self.spare_colours]
         position = {int(k): i for i, k in enumerate(solve_order(self.rounds))}
         launches = sorted(body + static, key=lambda c: position[c[0]])
-        self._captured = [(k, max(n * self.headroom, n + self.spare_threads)) for k, n in launches]
+        self._captured = [(k, launch_threads(n)) for k, n in launches]
         self._captured_body_colours = len(body)
         threads = np.zeros(self._colour_capacity, np.int32)
         for k, n in self._captured:
             threads[k] = n
         self.threads.assign(threads)
+        return True

@@ -141,6 +141,19 @@ def gather_poses(start: Any, end: Any, margin: float, geoms: Geoms, max_reach: w
     wp.atomic_max(max_reach, 1, travel)
 
 
+@wp.func
+def static_pairs(geoms: Geoms, i: int, static_reach: float, static_count: int, pairs: ContactBuffer):
+    """Candidate pairs of body i with the static colliders and planes it may reach (static_reach [m])."""
+    x = geoms.x[i]
+    for s in range(static_count):
+        g = geoms.body_count + s
+        if wp.length(geoms.x[g] - x) <= static_reach + geoms.bound[g]:
+            emit_pair(pairs, i, g)
+    for k in range(geoms.plane_normal.shape[0]):
+        if wp.dot(geoms.plane_normal[k], x) - geoms.plane_offset[k] <= static_reach:
+            emit_pair(pairs, i, -1 - k)
+
+
 @wp.kernel
 def find_pairs(geoms: Geoms, grid: wp.uint64, static_count: int, max_reach: wp.array(dtype=wp.float32),
                pairs: ContactBuffer):
@@ -150,19 +163,25 @@ def find_pairs(geoms: Geoms, grid: wp.uint64, static_count: int, max_reach: wp.a
     i = wp.tid()
     x = geoms.x[i]
     reach = geoms.reach[i]
-    static_reach = reach + max_reach[1]
     query = wp.hash_grid_query(grid, x, reach + max_reach[0])
     j = int(0)
     while wp.hash_grid_query_next(query, j):
         if j > i and wp.length(geoms.x[j] - x) <= reach + geoms.reach[j]:
             emit_pair(pairs, i, j)
-    for s in range(static_count):
-        g = geoms.body_count + s
-        if wp.length(geoms.x[g] - x) <= static_reach + geoms.bound[g]:
-            emit_pair(pairs, i, g)
-    for k in range(geoms.plane_normal.shape[0]):
-        if wp.dot(geoms.plane_normal[k], x) - geoms.plane_offset[k] <= static_reach:
-            emit_pair(pairs, i, -1 - k)
+    static_pairs(geoms, i, reach + max_reach[1], static_count, pairs)
+
+
+@wp.kernel
+def find_all_pairs(geoms: Geoms, static_count: int, max_reach: wp.array(dtype=wp.float32), pairs: ContactBuffer):
+    """find_pairs without the hash grid, for a few bodies: body i against every body j > i (cheaper than building
+    the grid below about a hundred bodies on the CPU, where the build costs some 50 us whatever the count)."""
+    i = wp.tid()
+    x = geoms.x[i]
+    reach = geoms.reach[i]
+    for j in range(i + 1, geoms.body_count):
+        if wp.length(geoms.x[j] - x) <= reach + geoms.reach[j]:
+            emit_pair(pairs, i, j)
+    static_pairs(geoms, i, reach + max_reach[1], static_count, pairs)
 
 
 # narrow phase -----------------------------------------------------------------

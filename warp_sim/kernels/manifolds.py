@@ -197,13 +197,14 @@ def check_colours(sizes: wp.array(dtype=wp.int32), threads: wp.array(dtype=wp.in
 
 
 @wp.kernel
-def gate_response(pairs: ContactBuffer, contacts: ContactBuffer, left: wp.array(dtype=wp.int32),
-                  impacts: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32)):
+def gate_response(pairs: ContactBuffer, contacts: ContactBuffer, pair_threads: int, contact_threads: int,
+                  left: wp.array(dtype=wp.int32), impacts: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32)):
     """A captured step's gates, one thread: flags[0] (the colours too large, from check_colours) becomes 1 if the
-    recorded launches missed anything (a buffer over its capacity, manifolds left uncoloured after the recorded
-    rounds, a colour too large), else 0; flags[1]: respond (nothing missed, some contact); flags[2]: collide
-    (respond, and an impact); flags[3]: keep (nothing missed: the warm start may be rewritten)."""
-    missed = flags[0] > 0 or pairs.count[0] > pairs.ids.shape[0] or contacts.count[0] > contacts.ids.shape[0]
+    recorded launches missed anything (more pairs or contacts than their threads, which are at most the buffers'
+    capacities; manifolds left uncoloured after the recorded rounds; a colour too large), else 0; flags[1]:
+    respond (nothing missed, some contact); flags[2]: collide (respond, and an impact); flags[3]: keep (nothing
+    missed: the warm start may be rewritten)."""
+    missed = flags[0] > 0 or pairs.count[0] > pair_threads or contacts.count[0] > contact_threads
     missed = missed or left[0] > 0
     respond = not missed and contacts.count[0] > 0
     flags[0] = wp.where(missed, 1, 0)

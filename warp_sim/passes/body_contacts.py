@@ -89,6 +89,7 @@ class BodyContacts(Pass):
                                     stamp=self.work.stamp)
         self._capacity = 0
         self._ensure(self.detection.contacts.capacity)
+        self._recorded_sizes = None
 
     def _ensure(self, capacity: int) -> None:
         """Per-contact rows and the warm-start table for at least ``capacity`` contacts (they only grow)."""
@@ -133,7 +134,7 @@ class BodyContacts(Pass):
             self.table.used.zero_()   # nothing to warm-start from next step
             return
         self._ensure(self.detection.contacts.capacity)
-        threads = self.detection.contacts.capacity if capturing else count
+        threads = self.detection.threads()[1]
         T = m.scalar
         gravity = m.gravity_magnitude
         bounce = self.bounce_speed if self.bounce_speed is not None else max(2.0 * gravity * h, 1e-6)
@@ -204,8 +205,18 @@ class BodyContacts(Pass):
         wp.capture_if(manifolds.respond, on_true=respond)
         wp.capture_if(manifolds.keep, on_true=remember)
 
-    def before_capture(self) -> None:
-        self.manifolds.before_capture()
+    def before_capture(self) -> bool:
+        self.detection.before_capture()
+        self._recorded_sizes = self._sizes()
+        return self.manifolds.before_capture()
+
+    def _sizes(self) -> tuple:
+        """The capacities whose growth reallocates the arrays a captured step launches on."""
+        d, manifolds = self.detection, self.manifolds
+        return d.pairs.capacity, d.contacts.capacity, manifolds.colour_capacity, self._capacity
+
+    def capture_intact(self) -> bool:
+        return self._sizes() == self._recorded_sizes
 
     def replay_held(self) -> bool:
         """After a captured step's replay: whether its launches held all of it (no buffer over its capacity, no

@@ -26,6 +26,8 @@ class ParticleShapeContacts(Pass):
         self.model = model
         self.geometry = geometry
         self.detection = detection
+        if detection is not None and model.body_count:
+            detection.use_grid()   # the bodies near a particle come from the detection's hash grid
         self.touched = model.empty(wp.int32)
         empty, vec3 = model.empty, model.vec3
         self.no_bodies = (blocks.fill(model.blocks.Bodies, x=empty(vec3), q=empty(model.quat), P=empty(vec3),
