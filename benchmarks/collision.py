@@ -298,15 +298,18 @@ def host_shares(sim: ws.Simulator, profile: KernelProfile, kernels: dict, result
     launches = sum(k["launches"] for k in kernels.values())
     kernel_s = sum(k["ms"] for k in kernels.values()) / 1e3 - launches * cost
     captured = ws.Simulator(scene, integrator="symplectic_euler", device=sim.device.alias, capture=True)
-    time_steps(captured, settle_steps, args.dt)
+    settle_s = time_steps(captured, settle_steps, args.dt)
     graphs = captured._graphs
+    settle_misses, settle_recorded = graphs.missed, graphs.recorded
     missed, recorded = graphs.missed, graphs.recorded
     seconds = time_steps(captured, args.steps, args.dt)
     step_s = seconds / args.steps
     out = dict(kernel_ms_per_step=kernel_s * 1e3, timing_cost_us_per_launch=cost * 1e6,
                uncaptured_share=1.0 - kernel_s / (result["ms_per_step"] / 1e3), captured_steps_per_s=1.0 / step_s,
                captured_ms_per_step=step_s * 1e3, captured_share=1.0 - kernel_s / step_s,
-               captured_misses=graphs.missed - missed, captured_recorded=graphs.recorded - recorded)
+               captured_misses=graphs.missed - missed, captured_recorded=graphs.recorded - recorded,
+               captured_settle_s=settle_s, captured_settle_misses=settle_misses,
+               captured_settle_recorded=settle_recorded)
     print(f"  captured: {out['captured_steps_per_s']:.1f} steps/s ({out['captured_misses']} of {args.steps} steps "
           f"missed); host share {100 * out['uncaptured_share']:.0f} % uncaptured, "
           f"{100 * out['captured_share']:.0f} % captured", flush=True)
@@ -347,7 +350,9 @@ def tables(device_alias: str, results: list[dict], newton_status: str) -> str:
                               f"{p['max_horizontal']:.2f}", "yes" if p["finite"] else "NO"])
         if "host" in r:
             h = r["host"]
-            host_rows.append([n, f"{r['steps_per_s']:.1f}", f"{h['captured_steps_per_s']:.1f}",
+            host_rows.append([n, f"{r['settle_s']:.2f}", f"{h['captured_settle_s']:.2f}",
+                              f"{h['captured_settle_misses']} / {h['captured_settle_recorded']}",
+                              f"{r['steps_per_s']:.1f}", f"{h['captured_steps_per_s']:.1f}",
                               f"{h['captured_steps_per_s'] / r['steps_per_s']:.2f}x", f"{h['captured_misses']}",
                               f"{h['kernel_ms_per_step']:.3f}", f"{100 * h['uncaptured_share']:.0f} %",
                               f"{100 * h['captured_share']:.0f} %"])
@@ -368,7 +373,8 @@ def tables(device_alias: str, results: list[dict], newton_status: str) -> str:
            markdown(["N", "when", "max speed m/s", "lowest point mm", "centres below ground", "highest centre m",
                      "max distance from axis m", "finite"], pile_rows, left=("when", "finite")) if pile_rows else ""]
     if host_rows:
-        out.append(markdown(["N", "steps/s", "captured steps/s", "captured / uncaptured", "captured misses",
+        out.append(markdown(["N", "settle s", "settle s, captured", "settle misses / recordings", "steps/s",
+                             "captured steps/s", "captured / uncaptured", "captured misses",
                              "kernels ms/step", "host share", "host share, captured"], host_rows, left=()))
     if kernel_rows:
         out.append(markdown(["N"] + list(CONTACT_KERNELS.values()) + [f"solver + guard ({solver_labels})", "sum",

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import warp_sim as ws
+from warp_sim.core.capture import StepGraphs
 
 
 def _cloth():
@@ -179,3 +180,23 @@ def test_a_buffer_that_grows_during_a_captured_step_makes_a_new_capture():
     assert detection.contacts.grows == plain.body_contacts.detection.contacts.grows
     assert captured._graphs.missed >= detection.contacts.grows and captured._graphs.recorded > recorded + 2
     _assert_same_bodies(plain, captured)
+
+
+def test_misses_keep_the_graphs_until_they_pile_up_then_recording_backs_off():
+    """A miss whose redo reallocated nothing keeps the graphs (replayed on); the ``refresh``-th miss since the last
+    recording, or one that reallocated a buffer, drops them, and the next recording waits ``backoff`` steps,
+    doubled each time (a recording costs as much as a hundred CPU steps; a landing pile misses often)."""
+    graphs = StepGraphs(model=None)
+    graphs.graphs = {"a": object()}
+    graphs.waiting = 0
+    for _ in range(graphs.refresh - 1):
+        graphs.miss(intact=True)
+    assert graphs.graphs and graphs.waiting == 0 and graphs.missed == graphs.refresh - 1
+    graphs.miss(intact=True)
+    assert not graphs.graphs and graphs.waiting == graphs.first_backoff and graphs.backoff == 2 * graphs.first_backoff
+    graphs.graphs = {"a": object()}
+    graphs.miss(intact=False)   # a buffer grew: the graphs point at freed arrays
+    assert not graphs.graphs and graphs.waiting == 2 * graphs.first_backoff
+    for _ in range(20):
+        graphs.miss(intact=False)
+    assert graphs.backoff == graphs.longest_backoff
