@@ -157,7 +157,7 @@ class BodyContacts(Pass):
         def collide():
             prepared = m.launcher.prepare(contact_kernels.collide_manifolds, 1, [
                 manifolds.set, 0, collision_iterations, 0, T(h), start.bodies, end.bodies, rows, mass, work,
-                T(bounce)])
+                T(bounce), work.stamp])
             for sweep in range(collision_sweeps):
                 prepared.set(3, sweep)
                 self._sweep(prepared, colours, 1)
@@ -169,9 +169,9 @@ class BodyContacts(Pass):
             m.launch(contact_kernels.prepare_rows, threads, [manifolds.row_ids, c.count, B, end.bodies, rows, mass,
                                                              work])
             self._sweep(m.launcher.prepare(contact_kernels.warm_start_manifolds, 1, [
-                manifolds.set, 0, rows, mass, work]), colours, 1)
+                manifolds.set, 0, rows, mass, work, manifolds.row_ids]), colours, 1)
             solve = m.launcher.prepare(contact_kernels.solve_manifolds, 1, [
-                manifolds.set, 0, contact_iterations, 0, T(self.tolerance), rows, mass, work])
+                manifolds.set, 0, contact_iterations, 0, T(self.tolerance), rows, mass, work, work.stamp])
             for sweep in range(contact_sweeps):   # numbered after the collision sweeps, whose stamps they follow
                 solve.set(3, collision_sweeps + 1 + sweep)
                 self._sweep(solve, colours, 1)
