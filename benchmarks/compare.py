@@ -113,7 +113,9 @@ def implementations(workload: str, device) -> list[dict]:
                       ("newton", "Newton SemiImplicit (penalty ground, no drag)", "newton"),
                       ("taichi", f"{taichi}, impulse ground", "taichi"),
                       ("mujoco", "MuJoCo", "mujoco", NOT_MUJOCO_PARTICLES)],
-        "pile": [("warp_sim", "warp_sim (guard on)", None), ("newton", "Newton SemiImplicit", "newton"),
+        "pile": [("warp_sim", "warp_sim (guard on)", None),
+                 ("warp_sim_capture", "warp_sim (guard on, capture=True)", None),
+                 ("newton", "Newton SemiImplicit", "newton"),
                  ("newton_xpbd", "Newton XPBD (5 iterations)", "newton"),
                  ("mujoco", "MuJoCo C (cpu, 1 thread)", "mujoco"), ("mujoco_warp", "MuJoCo-Warp", "mujoco_warp"),
                  ("taichi", "Taichi", "taichi", NOT_TAICHI_PILE)],
@@ -430,10 +432,10 @@ def run_particles(key: str, n: int, cfg: dict, device, modules: dict) -> dict:
 def run_pile(key: str, n: int, cfg: dict, device, modules: dict, dt: float, budget: float) -> dict:
     parameters = collision.body_parameters(n)
     start = time.perf_counter()
-    if key == "warp_sim":
+    if key in ("warp_sim", "warp_sim_capture"):
         collision.load_kernels(device, dt)
         implementation = WarpSimRun(ws.Simulator(collision.build_scene(parameters), integrator="symplectic_euler",
-                                                 device=device.alias))
+                                                 device=device.alias, capture=key == "warp_sim_capture"))
     elif key in ("newton", "newton_xpbd"):
         implementation = collision.NewtonPile(modules["newton"], parameters, device,
                                               solver="xpbd" if key == "newton_xpbd" else "semi_implicit")
@@ -603,8 +605,8 @@ def main(argv=None) -> None:
     parser.add_argument("--quick", action="store_true", help="small sizes, few steps (a couple of minutes)")
     parser.add_argument("--workloads", nargs="+", choices=WORKLOADS, default=list(WORKLOADS))
     parser.add_argument("--only", nargs="+", default=None, metavar="IMPL",
-                        help="only these implementations (warp_sim, warp_sim_guard, newton, newton_xpbd, taichi, "
-                             "mujoco, mujoco_warp)")
+                        help="only these implementations (warp_sim, warp_sim_guard, warp_sim_capture, newton, "
+                             "newton_xpbd, taichi, mujoco, mujoco_warp)")
     parser.add_argument("--pile-dt", type=collision.positive_time, default=PILE_DT,
                         help="the piles' step [s] (a number or a fraction; default 1/500)")
     parser.add_argument("--budget", type=float, default=None,
