@@ -1,6 +1,7 @@
 """Broad and narrow phase over a step: the contacts that exist or could close within it.
 
-A hash grid over the bodies' centres (rebuilt every step, linear in the body count) gives
+Every pair up to ``Detection.all_pairs`` bodies (a CPU builds a hash grid in some 50 us whatever the
+count), beyond that a hash grid over the bodies' centres (rebuilt every step, linear in the body count), gives
 the pairs whose bounding spheres, grown by how far each body moves over the step and the
 contact margin, overlap; static colliders and planes are tested per body. The narrow
 phase then tests, at the start poses, sample points (box corners, capsule and sphere

@@ -1,8 +1,8 @@
 """Bodies in collision: the impulse response against bodies, static colliders and planes, a pass after each step.
 
 Each step (``BodyContacts.apply``, after the solver), with the detection of ``warp_sim.detection``:
-1. broad phase: a hash grid over the bodies' centres (rebuilt every step, linear in the
-   body count) gives the pairs whose bounding spheres, grown by how far each body moves
+1. broad phase: every pair up to 128 bodies, beyond that a hash grid over the bodies' centres
+   (rebuilt every step, linear in the body count), gives the pairs whose bounding spheres, grown by how far each body moves
    over the step and the contact margin, overlap; static colliders and planes are tested
    per body;
 2. narrow phase at the start of the step: sample points (box corners, capsule and
