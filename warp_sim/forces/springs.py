@@ -16,6 +16,7 @@ class Springs(ForceTerm):
         self.model = model
 
     def apply(self, state: State, t: float, forces: Forces) -> None:
-        m = self.model
-        m.launch(spring_kernels.spring_forces, m.spring_count,
-                 [state.particle_x, state.particle_v, m.springs, forces.particle_f])
+        m, springs = self.model, self.model.springs
+        m.launch(spring_kernels.spring_forces_unpacked, m.spring_count,
+                 [state.particle_x, state.particle_v, springs.pairs, springs.stiffness, springs.damping,
+                  springs.rest_length, forces.particle_f])

@@ -2,9 +2,9 @@
 
 Each step (``BodyContacts.apply``, after the solver), with the detection of ``warp_sim.detection``:
 1. broad phase: every pair up to 128 bodies, beyond that a hash grid over the bodies' centres
-   (rebuilt every step, linear in the body count), gives the pairs whose bounding spheres, grown by how far each body moves
-   over the step and the contact margin, overlap; static colliders and planes are tested
-   per body;
+   (rebuilt every step, linear in the body count), gives the pairs whose bounding spheres, grown
+   by how far each body moves over the step and the contact margin, overlap; static colliders
+   and planes are tested per body;
 2. narrow phase at the start of the step: sample points (box corners, capsule and
    sphere centres with their radius, cylinder rims, mesh vertices) against the other
    shape's signed distance, and box-box contact polygons by separating axes; every
