@@ -16,11 +16,12 @@ class StepGraphs:
     """The recorded graphs of one simulation's step, by key; ``step(key, record)`` replays or records.
 
     recorded: graphs recorded so far; replays: steps replayed from a graph; missed: replays whose launches did not
-        hold the step (a buffer or colouring outgrew them), each done again uncaptured, after which every graph is
-        recorded afresh once a buffer was reallocated or ``refresh`` misses came since the last recording (until
-        then the graphs are kept and replayed on); waiting: steps still to run uncaptured before the next
-        recording (the first step runs uncaptured: it allocates what a capture would only record, and sizes the
-        launches of what can grow; after graphs are dropped for misses, ``backoff`` steps)
+        hold the step (a buffer or colouring outgrew them), each done again uncaptured; every graph is recorded
+        afresh once a buffer was reallocated or ``refresh`` misses came close together (each ``forgive`` replays
+        that held forget one; until then the graphs are kept and replayed on)
+    waiting: steps still to run uncaptured before the next recording (the first step runs uncaptured: it allocates
+        what a capture would only record, and sizes the launches of what can grow; after graphs are dropped for
+        misses, ``backoff`` steps)
     backoff: uncaptured steps after graphs are dropped: doubled each time (at most ``longest_backoff``), halved
         after every ``calm`` replays that held. A recording costs as much as a hundred steps on the CPU (Warp
         records each launch's arguments in Python), so a scene whose contacts change often (a pile landing) runs
@@ -28,7 +29,7 @@ class StepGraphs:
     """
 
     limit = 8   # graphs kept (distinct step sizes and parities); past it they are dropped and recorded again
-    first_backoff, longest_backoff, calm, refresh = 64, 1024, 1000, 4
+    first_backoff, longest_backoff, calm, refresh, forgive = 64, 1024, 1000, 4, 100
 
     def __init__(self, model):
         self.model = model
@@ -38,7 +39,7 @@ class StepGraphs:
         self.missed = 0
         self.waiting = 1
         self.backoff = self.first_backoff
-        self._misses = 0   # since the last recording
+        self._misses = 0   # since the last recording, less one per ``forgive`` replays that held
 
     def step(self, key, record, prepare) -> bool:
         """Launch the graph recorded under ``key``; the first time, call ``prepare()`` (True: the graphs recorded
@@ -68,7 +69,10 @@ class StepGraphs:
         return replay
 
     def held(self) -> None:
-        """A replay's launches held its step (after ``calm`` of them the backoff halves)."""
+        """A replay's launches held its step (every ``forgive`` of them forget a miss, every ``calm`` halve the
+        backoff)."""
+        if self.replays % self.forgive == 0:
+            self._misses = max(0, self._misses - 1)
         if self.replays % self.calm == 0:
             self.backoff = max(1, self.backoff // 2)
 
