@@ -17,10 +17,11 @@ wp.set_module_options({"enable_backward": False})  # forward simulation only: no
 @wp.func
 def spring_force(xi: Any, xj: Any, vi: Any, vj: Any, stiffness: Any, damping: Any, rest_length: Any):
     """The force [N] on p2 of a spring from p1 (xi [m], vi [m/s]) to p2 (xj, vj): f = (-ks (L - L0) - kd (vj -
-    vi).d) d with d the unit vector from p1 to p2 and L the length; zero where L is zero (no direction)."""
+    vi).d) d with d the unit vector from p1 to p2 and L the length; zero where L is zero (no direction) or not a
+    number (a non-finite position stays where it is, for the guard to name, instead of spreading along springs)."""
     delta = xj - xi
     length = wp.length(delta)
-    f = delta * type(length)(0.0)
+    f = type(delta)()
     if length > type(length)(0.0):
         d = delta / length
         f = (-stiffness * (length - rest_length) - damping * wp.dot(vj - vi, d)) * d
