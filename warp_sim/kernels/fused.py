@@ -15,7 +15,7 @@ import warp as wp
 
 from .guards import GuardRecord, check_element
 from .particles import acceleration
-from .planes import plane_response
+from .planes import clear_of_planes, plane_response
 from .precisions import register
 
 __all__ = []
@@ -29,7 +29,8 @@ def symplectic_euler_particles(x: wp.array(dtype=Any), v: wp.array(dtype=Any), f
                                impacts: int, x_out: wp.array(dtype=Any), v_out: wp.array(dtype=Any),
                                touched_out: wp.array(dtype=wp.int32), max_speed: Any, step: int, record: GuardRecord):
     """One semi-implicit Euler step of h seconds for particle i: v' = v + h a(v), x' = x + h v', then (impacts 1)
-    the time-of-impact plane response, then (step > 0) the guard's check of (x', v') as step ``step``.
+    the time-of-impact plane response (skipped where kernels.planes.clear_of_planes shows that it would change
+    nothing), then (step > 0) the guard's check of (x', v') as step ``step``.
 
     Args:
         x, v: positions [m] and velocities [m/s] at the start (vec3)
@@ -52,7 +53,8 @@ def symplectic_euler_particles(x: wp.array(dtype=Any), v: wp.array(dtype=Any), f
         fi = force[i]
     v1 = vi + h * acceleration(vi, fi, forced, material.inv_mass[i], gravity, drag, wind)
     x1 = xi + h * v1
-    if impacts != 0 and material.inv_mass[i] != type(h)(0.0):
+    if impacts != 0 and material.inv_mass[i] != type(h)(0.0) and not clear_of_planes(
+            xi, vi, v1, material.radius[i], planes.normal, planes.offset, h):
         xe, ve, touched = plane_response(i, xi, vi, x1, v1, material, planes, h)
         if touched != 0:
             x1 = xe
