@@ -1,4 +1,4 @@
-"""Collision detection for bodies: the shapes on the device, broad phase (hash grid) and narrow phase.
+"""Collision detection for bodies: the shapes on the device, broad phase (every pair, or a hash grid) and narrow phase.
 
 Geometry is queried at the start of a step in float32 (``Geoms``, ``ContactBuffer``).
 A contact pushes body ``ids[c][0]`` along +n away from ``ids[c][1]``, which is a body
