@@ -5,7 +5,8 @@ A graph bakes in every launch's arrays, thread counts and scalars, so only steps
 every time can be captured: a fixed step size, no host read-back that sizes a launch (contact counts, colourings,
 convergence tests), no scalar that changes from step to step (the time) and no array replaced after recording.
 Each part says whether it qualifies (``capturable``); ``Simulator(capture=True)`` captures only where all of its
-parts do. A graph is kept per (step size, which of the two States is current) and remade when either changes.
+parts do. A graph is kept per (piece size, which of the two States is current). Parts whose buffers grow (the body
+contacts) launch over headroom, gated on the device, and say after a replay whether it held (``Pass.replay_held``).
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import warp as wp
 
 
 class StepGraphs:
-    """The recorded graphs of one simulation's step, by key; ``step(key, record)`` replays or records.
+    """The recorded graphs of one simulation's step, by key; ``step(key, record, prepare)`` replays or records.
 
     recorded: graphs recorded so far; replays: steps replayed from a graph; missed: replays whose launches did not
         hold the step (a buffer or colouring outgrew them), each done again uncaptured; every graph is recorded

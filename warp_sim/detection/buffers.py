@@ -8,9 +8,8 @@ import warp as wp
 from ..kernels import detection as detection_kernels
 
 #: a captured step's launches over what can grow: the count last seen uncaptured times HEADROOM, or plus SPARE
-#: threads, whichever is more. A thread past the count exits at once, but it still costs about 10 ns on the CPU
-#: for a kernel with big argument structs, while a step whose counts outgrow its launches is done again and its
-#: graphs recorded afresh (some 40 ms on the CPU for a 100-body pile)
+#: threads, whichever is more. A thread past the count exits at once (about 1 ns on the CPU), while a step whose
+#: counts outgrow its launches is done again uncaptured, and graphs recorded afresh cost some 40 ms on the CPU
 HEADROOM, SPARE = 1.25, 8
 
 
@@ -52,7 +51,7 @@ class GrowableBuffer:
     def fill(self, launch, capturing: bool = False) -> int | None:
         """Run ``launch(buffer)``; if it wrote more than fits, grow to fit and run it again. Returns the count.
         While a step is captured (``capturing``) nothing is read back: it launches once and returns None, and the
-        step's gate (kernels.manifolds.gate_response) sees a count over the capacity after the replay."""
+        step's gate (kernels.manifolds.gate_response) sees a count over the launches' threads after the replay."""
         if capturing:
             self.count.zero_()
             launch(self.buffer)

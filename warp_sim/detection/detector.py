@@ -92,7 +92,8 @@ class Detection:
                      [self.pairs.buffer, geoms, self.geometry.max_reach, buffer])
 
         if capturing:
-            return self.contacts.fill(contacts, capturing)
+            self.contacts.fill(contacts, capturing)
+            return None
         self.pair_count = pair_count
         self.count = self.contacts.fill(contacts) if pair_count else 0
         return self.count

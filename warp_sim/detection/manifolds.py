@@ -125,7 +125,7 @@ class ContactManifolds:
     def colour(self) -> tuple[list[tuple[int, int]], int, int | None]:
         """Colour the pairs (after ``sort``) and order the manifolds by colour; returns ``colours``,
         ``body_colours`` and the count in ``impacts``. While a step is captured nothing is read back: the rounds
-        are those of the last uncaptured colouring and the launches its colours, each given ``headroom``, the
+        are those of the last uncaptured colouring and the launches its colours (before_capture), the
         count is None, and ``flags`` say after the replay whether the launches missed anything (then the step
         is done again, uncaptured)."""
         m, d = self.model, self.detection

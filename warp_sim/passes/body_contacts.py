@@ -58,7 +58,7 @@ class BodyContacts(Pass):
     """
 
     kernels = ("contacts", "detection", "manifolds", "rigid")
-    capturable = True   # captured steps launch over the capacities, gated on the device (replay_held)
+    capturable = True   # captured steps launch over the last counts with headroom, gated on the device (replay_held)
 
     persistent = ("_capacity", "table.used", "table.keys", "table.cells", "table.n", "table.t")   # the warm start
 
@@ -123,8 +123,8 @@ class BodyContacts(Pass):
     def apply(self, start: State, end: State, t: float, h: float) -> None:
         """Detect over the step from ``start`` to ``end`` (h seconds) and correct ``end`` in place.
 
-        While a step is captured (core.capture) nothing is read back: the launches run over the buffers'
-        capacities and the last uncaptured colouring's colours, and the response runs only where the device's
+        While a step is captured (core.capture) nothing is read back: the launches run over the last uncaptured
+        counts and colouring's colours with headroom, and the response runs only where the device's
         gates say that they held everything (``replay_held``); a step whose launches missed something leaves
         ``end`` as the solver wrote it and the warm start as it was, and is done again uncaptured."""
         m = self.model
@@ -219,8 +219,8 @@ class BodyContacts(Pass):
         return self._sizes() == self._recorded_sizes
 
     def replay_held(self) -> bool:
-        """After a captured step's replay: whether its launches held all of it (no buffer over its capacity, no
-        colour over its threads; one int read back). False: the step must be done again, uncaptured."""
+        """After a captured step's replay: whether its launches held all of it (no count and no colour over its
+        threads; one int read back). False: the step must be done again, uncaptured."""
         return int(self.manifolds.missed.numpy()[0]) == 0
 
     @staticmethod
