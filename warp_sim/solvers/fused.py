@@ -27,6 +27,7 @@ class FusedParticleStep:
 
     kernels = ("fused",)
     capturable = True
+    cpu_chunk = 256   # particles a CPU thread steps (kernels.fused.symplectic_euler_particles); one on CUDA
 
     def __init__(self, dynamics: Dynamics, impacts: bool, touched: wp.array):
         self.dynamics = dynamics
@@ -37,6 +38,8 @@ class FusedParticleStep:
         self.record = GuardRecord()
         self.record.first_step = self.record.first_key = wp.empty(1, dtype=wp.int32, device=model.device)
         self.max_speed = model.scalar(0.0)
+        self.chunk = self.cpu_chunk if model.device.is_cpu else 1
+        self.threads = -(-model.particle_count // self.chunk)
 
     def set_guard(self, record: GuardRecord, max_speed) -> None:
         """Fold the guard's check of the particles (its record, its bound [m/s] in the model's scalar) in."""
@@ -46,7 +49,7 @@ class FusedParticleStep:
         """``end`` from ``start`` over h seconds from time t; check > 0: record the guard's check as that step."""
         m, forces = self.model, self.dynamics.forces
         self.dynamics.accumulate_forces(start, t)
-        m.launch(fused_kernels.symplectic_euler_particles, m.particle_count,
+        m.launch(fused_kernels.symplectic_euler_particles, self.threads,
                  [start.particle_x, start.particle_v, forces.particle_f, m.gravity, m.drag, m.wind,
                   m.particle_material, self.planes, m.scalar(h), self.impacts, end.particle_x, end.particle_v,
-                  self.touched, self.max_speed, check, self.record])
+                  self.touched, self.max_speed, check, self.record, self.chunk])
