@@ -79,10 +79,12 @@ def first_contact_time(d0: Any, b: Any, c: Any, horizon: Any):
 
 @wp.func
 def coulomb_friction(vt: Any, max_change: Any):
-    """Reduce tangential velocity vt by at most max_change [m/s], stopping it rather than reversing it."""
-    speed = wp.length(vt)
+    """Reduce tangential velocity vt by at most max_change >= 0 [m/s], stopping it rather than reversing it (the
+    speed is compared squared first, so that a contact that sticks, the common case, takes no root or division)."""
+    speed_squared = wp.dot(vt, vt)
     out = vt * type(max_change)(0.0)
-    if speed > max_change:
+    if speed_squared > max_change * max_change:
+        speed = wp.sqrt(speed_squared)
         out = vt * ((speed - max_change) / speed)
     return out
 
@@ -115,7 +117,7 @@ def plane_response(i: int, x_start: Any, v_start: Any, x: Any, v: Any, material:
     r = material.radius[i]
     xs = x_start
     vs = v_start
-    a = (v - vs) / h
+    a = (v - vs) * (type(h)(1.0) / h)
     xe = x
     ve = v
     t = zero
@@ -140,12 +142,16 @@ def plane_response(i: int, x_start: Any, v_start: Any, x: Any, v: Any, material:
         vs = vs + a * best
         t = t + best
         remaining = h - t
+        inv_remaining = type(h)(0.0)
+        if remaining > zero:
+            inv_remaining = type(h)(1.0) / remaining   # off the chain of dependent operations below
         e = contact_material(planes.restitution[best_k], material.restitution, i)
         mu = contact_material(planes.friction[best_k], material.friction, i)
         vn = wp.dot(vs, n)
         an = wp.dot(a, n)
-        resting_speed = type(h)(1e-6) * (wp.length(vs) + wp.abs(an) * h)
-        if vn < -resting_speed:
+        # an impact when vn < -1e-6 (|vs| + |an| h): -vn - 1e-6 |an| h > 1e-6 |vs|, compared squared (no root)
+        margin = -vn - type(h)(1e-6) * wp.abs(an) * h
+        if margin > zero and margin * margin > type(h)(1e-12) * wp.dot(vs, vs):
             # impact: reflect the normal velocity, friction bounded by the normal impulse
             vt = coulomb_friction(vs - vn * n, mu * (type(h)(1.0) + e) * (-vn))
             vs = vt - e * vn * n
@@ -160,7 +166,7 @@ def plane_response(i: int, x_start: Any, v_start: Any, x: Any, v: Any, material:
             vt_free = vt0 + (a - an * n) * remaining
             vt_end = coulomb_friction(vt_free, mu * support)
             vs = vt0 + vn * n
-            a = (vt_end - vt0) / remaining
+            a = (vt_end - vt0) * inv_remaining
         xe = xs + (vs + half * a * remaining) * remaining
         ve = vs + a * remaining
     # final projection: no particle ends a step inside any plane
