@@ -17,6 +17,8 @@ from . import kernels
 from .assembly import RESPONSES, assemble
 from .core import persistence
 from .core.capture import StepGraphs
+from .core.cpu_threads import CpuPool
+from .core.cpu_threads import cpu_threads as cpu_threads_for
 from .core.guards import Guard, SimulationDiverged
 from .core.persistence import Persistent
 from .kernels import rigid as rigid_kernels
@@ -71,6 +73,9 @@ class Simulator(Persistent):
         time-independent fields; the same states bit for bit. A step whose contacts outgrow the recorded launches is
         done again uncaptured and the graphs recorded afresh. Otherwise a warning names the parts that do not allow
         it, and it runs uncaptured
+    cpu_threads: the CPU cores a launch over many independent elements may use at once (the fused particle step
+        of 2 x 16384 particles or more: core.cpu_threads), the same states bit for bit; None: the environment
+        variable WARP_SIM_CPU_THREADS, else every core this process may use
 
     With "rk45" each ``step(dt)`` lands exactly on t + dt, taking as many internal steps as the tolerance
     needs (``sim.integrator.stats()`` counts them), so ``run(..., substeps=1)`` is the natural choice.
@@ -89,7 +94,7 @@ class Simulator(Persistent):
     def __init__(self, scene: Scene, integrator="rk4", device: str | None = None, contact: str = "impulse",
                  penalty_stiffness: float = 1.0e4, guard: bool = True, max_speed: float = 1.0e4,
                  contact_margin: float = 0.005, collisions: bool = True, contact_step: float | None = 1.0 / 120.0,
-                 fused: bool = True, capture: bool = False):
+                 fused: bool = True, capture: bool = False, cpu_threads: int | None = None):
         if not isinstance(scene, Scene):
             raise checks.fail("scene", scene, "expected a warp_sim.Scene")
         if scene.particle_count == 0 and scene.body_count == 0:
@@ -108,6 +113,7 @@ class Simulator(Persistent):
             raise checks.fail("capture", capture, "expected True or False")
         if contact_step is not None:
             contact_step = checks.scalar("contact_step", contact_step, low=0.0, low_open=True)
+        threads = cpu_threads_for(cpu_threads)
         device = resolve_device(device)
         parts = assemble(scene, device, integrator, contact, stiffness, margin, collisions, contact_step, fused)
         #: the options it was made with, which a checkpoint must match
@@ -116,6 +122,8 @@ class Simulator(Persistent):
                              capture=capture)
         self.scene = scene
         self.model = parts.model
+        if self.model.device.is_cpu:
+            self.model.launcher.pool = CpuPool.shared(threads)
         self.control = parts.control
         self.dynamics = parts.dynamics
         self.integrator = parts.integrator

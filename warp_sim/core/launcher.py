@@ -131,6 +131,31 @@ class Prepared:
         if launches:
             self.dim, self.values[i] = launches[-1][1], launches[-1][0]
 
+    def run_pieces(self, dim: int, base: int, pieces: int) -> None:
+        """Launch over ``dim`` threads as up to ``pieces`` pieces at once on the launcher's pool (core.cpu_threads),
+        where input ``base`` (an int) is a piece's first thread, which the kernel adds to wp.tid(). Only for kernels
+        whose threads write disjoint elements. One piece (base 0) off the direct CPU path, or while logged,
+        profiled or captured."""
+        launcher = self.launcher
+        pool = launcher.pool
+        pieces = min(pieces, pool.threads if pool is not None else 1, dim)
+        if (pieces <= 1 or self.direct is None or launcher.log is not None or launcher.profile is not None
+                or launcher.capturing or base not in self.simple):
+            self.set(base, 0)
+            self.run(dim)
+            return
+        forward, arguments, names = self.direct
+        calls = []
+        for piece in range(pieces):
+            first, end = piece * dim // pieces, (piece + 1) * dim // pieces
+            bounds = type(self.command.params[0]).from_buffer_copy(self.command.params[0])
+            bounds.shape[0] = bounds.size = end - first
+            piece_arguments = type(arguments).from_buffer_copy(arguments)
+            setattr(piece_arguments, names[base], first)
+            calls.append((bounds, piece_arguments))
+        launcher.launches += 1
+        pool.call(forward, calls)
+
     def _timed(self, dim: int) -> None:
         """run() with the device synchronised around the launch, its time and argument bytes added to the
         launcher's profile."""
@@ -177,6 +202,7 @@ class Launcher:
     profile: None, or a dict each launch adds to, per kernel name [launches, seconds, argument bytes], the device
         synchronised around each launch (benchmarks/common.KernelProfile)
     capturing: True while core.capture records a graph: every launch then goes through Warp
+    pool: None, or the CPU threads a launch split into pieces runs on (Prepared.run_pieces; core.cpu_threads)
     """
 
     capacity = 512
@@ -189,6 +215,7 @@ class Launcher:
         self.log: list | None = None
         self.profile: dict | None = None
         self.capturing = False   # a graph is being recorded (core.capture): no direct CPU calls
+        self.pool = None   # the CPU threads of run_pieces (core.cpu_threads.CpuPool; None: one)
 
     def prepare(self, kernel, dim: int, inputs: list) -> Prepared:
         """The recorded launch of ``kernel`` on these arrays and structs (recorded now if new), its scalars set

@@ -28,6 +28,10 @@ class FusedParticleStep:
     kernels = ("fused",)
     capturable = True
     cpu_chunk = 256   # particles a CPU thread steps (kernels.fused.symplectic_euler_particles); one on CUDA
+    #: particles a piece of a CPU launch run on its own core holds at least (core.cpu_threads): handing a piece to
+    #: another thread costs about 10 us, a twentieth of this many particles' step
+    min_piece = 16384
+    BASE = 16   # the kernel's input that is a piece's first thread
 
     def __init__(self, dynamics: Dynamics, impacts: bool, touched: wp.array):
         self.dynamics = dynamics
@@ -35,21 +39,39 @@ class FusedParticleStep:
         self.impacts = int(impacts)
         self.touched = touched
         self.planes = model.planes if model.planes is not None else model.no_planes()
-        self.record = GuardRecord()
-        self.record.first_step = self.record.first_key = wp.empty(1, dtype=wp.int32, device=model.device)
-        self.max_speed = model.scalar(0.0)
+        record = GuardRecord()
+        record.first_step = record.first_key = wp.empty(1, dtype=wp.int32, device=model.device)
+        self.set_guard(record, model.scalar(0.0))
         self.chunk = self.cpu_chunk if model.device.is_cpu else 1
         self.threads = -(-model.particle_count // self.chunk)
+        #: pieces of a CPU launch at most, each of min_piece particles or more (one on CUDA)
+        self.pieces = max(1, model.particle_count // self.min_piece) if model.device.is_cpu else 1
 
     def set_guard(self, record: GuardRecord, max_speed) -> None:
         """Fold the guard's check of the particles (its record, its bound [m/s] in the model's scalar) in."""
         self.record, self.max_speed = record, max_speed
+        #: the record as numpy views on the CPU (its arrays' memory), else None
+        self._record_view = ((record.first_step.numpy(), record.first_key.numpy()) if record.first_step.device.is_cpu
+                             else None)
 
     def step(self, start, end, t: float, h: float, check: int) -> None:
         """``end`` from ``start`` over h seconds from time t; check > 0: record the guard's check as that step."""
         m, forces = self.model, self.dynamics.forces
         self.dynamics.accumulate_forces(start, t)
-        m.launch(fused_kernels.symplectic_euler_particles, self.threads,
-                 [start.particle_x, start.particle_v, forces.particle_f, m.gravity, m.drag, m.wind,
-                  m.particle_material, self.planes, m.scalar(h), self.impacts, end.particle_x, end.particle_v,
-                  self.touched, self.max_speed, check, self.record, self.chunk])
+        launch = m.launcher.prepare(
+            fused_kernels.symplectic_euler_particles, self.threads,
+            [start.particle_x, start.particle_v, forces.particle_f, m.gravity, m.drag, m.wind, m.particle_material,
+             self.planes, m.scalar(h), self.impacts, end.particle_x, end.particle_v, self.touched, self.max_speed,
+             check, self.record, 0, self.chunk])
+        if self.pieces == 1 or check == 0 or self._record_view is None:
+            launch.run_pieces(self.threads, self.BASE, self.pieces)
+            return
+        # Warp's CPU atomics are plain reads and writes, so pieces that record bad particles at once may keep a
+        # higher one: a step that records one is taken again as one piece (it writes end from start only), so the
+        # record names its lowest bad particle, as on one thread
+        first_step, first_key = self._record_view
+        before = int(first_step[0]), int(first_key[0])
+        launch.run_pieces(self.threads, self.BASE, self.pieces)
+        if int(first_step[0]) != before[0]:
+            first_step[0], first_key[0] = before
+            launch.run_pieces(self.threads, self.BASE, 1)

@@ -1,0 +1,74 @@
+"""Threads for CPU launches: Warp runs a CPU launch's threads one after another on one core, so a launch whose
+elements are independent is split into pieces that run at once, one per core (``Prepared.run_pieces``).
+
+Warp's compiled CPU entry point is called through ctypes, which releases Python's lock for the call, so pieces
+called from several Python threads run in parallel. Only for kernels whose threads write disjoint elements:
+Warp's CPU atomics are plain reads and writes.
+
+``cpu_threads(value)`` is the count to use: ``value`` if given, else the environment variable WARP_SIM_CPU_THREADS,
+else the cores this process may run on. ``CpuPool.shared(count)`` is the process's pool of that many threads.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+from ..util import checks
+
+VARIABLE = "WARP_SIM_CPU_THREADS"
+
+
+def available_cores() -> int:
+    """The cores this process may run on [1]."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return os.cpu_count() or 1
+
+
+def cpu_threads(value: int | None = None) -> int:
+    """The CPU threads a launch may use: ``value`` (an int >= 1) if given, else WARP_SIM_CPU_THREADS, else every
+    available core. A bad value is a ValueError naming where it came from."""
+    if value is not None:
+        return checks.count("cpu_threads", value, low=1)
+    text = os.environ.get(VARIABLE)
+    if text is None or text.strip() == "":
+        return available_cores()
+    try:
+        number = int(text)
+    except ValueError:
+        number = 0
+    if number < 1:
+        raise checks.fail(VARIABLE, text, "must be a whole number >= 1 (threads for CPU launches)")
+    return number
+
+
+class CpuPool:
+    """``threads`` CPU threads: the caller's and threads - 1 workers, started at the first use (none for one)."""
+
+    _shared: dict[int, CpuPool] = {}
+
+    def __init__(self, threads: int):
+        self.threads = threads
+        self._workers: ThreadPoolExecutor | None = None
+        self._pid = os.getpid()
+
+    @classmethod
+    def shared(cls, threads: int) -> CpuPool:
+        """The process's pool of ``threads`` threads (one per count, so that Simulators share their workers)."""
+        pool = cls._shared.get(threads)
+        if pool is None:
+            pool = cls._shared[threads] = cls(threads)
+        return pool
+
+    def call(self, entry, calls: list[tuple]) -> None:
+        """entry(byref(a), byref(b)) for every (a, b) of ``calls`` (a CPU entry point and its launch bounds and
+        arguments), the first on this thread and the rest on the workers at once; returns when all have."""
+        if self._workers is None or self._pid != os.getpid():   # a forked child has none of its parent's threads
+            self._workers = ThreadPoolExecutor(max(1, self.threads - 1), thread_name_prefix="warp_sim_cpu")
+            self._pid = os.getpid()
+        futures = [self._workers.submit(entry, ctypes.byref(a), ctypes.byref(b)) for a, b in calls[1:]]
+        first_bounds, first_arguments = calls[0]
+        entry(ctypes.byref(first_bounds), ctypes.byref(first_arguments))
+        for future in futures:
+            future.result()
