@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import platform
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -39,34 +40,50 @@ def best_rate(copy, nbytes: int, repeats: int = 7) -> float:
     return 2 * nbytes / min(times)
 
 
-def copy_bandwidth(megabytes: int, device=None) -> float:
-    """A large float32 copy: np.copyto on the host (device None), else wp.copy between device arrays."""
+def copy_bandwidth(megabytes: int, device=None, threads: int = 1) -> float:
+    """A large float32 copy: np.copyto on the host (device None), in ``threads`` slices copied at once (numpy lets
+    go of Python's lock for a copy), else wp.copy between device arrays."""
     count = megabytes * 2**20 // 4
     if device is None:
         src = np.ones(count, dtype=np.float32)
         dst = np.empty_like(src)
-        return best_rate(lambda: np.copyto(dst, src), 4 * count)
+        if threads == 1:
+            return best_rate(lambda: np.copyto(dst, src), 4 * count)
+        cuts = [k * count // threads for k in range(threads + 1)]
+        slices = [(dst[a:b], src[a:b]) for a, b in zip(cuts, cuts[1:])]
+        with ThreadPoolExecutor(threads - 1) as workers:
+            def copy():
+                futures = [workers.submit(np.copyto, *pair) for pair in slices[1:]]
+                np.copyto(*slices[0])
+                for future in futures:
+                    future.result()
+            return best_rate(copy, 4 * count)
     src = wp.ones(count, dtype=wp.float32, device=device)
     dst = wp.empty_like(src)
     return best_rate(lambda: (wp.copy(dst, src), wp.synchronize_device(device)), 4 * count)
 
 
-def floor_bandwidth(device, megabytes: int) -> tuple[float, float]:
-    """(numpy host copy bandwidth, the floor's bandwidth): the device's own wp.copy on CUDA, else the host figure.
-    Both in bytes read + written per second."""
+def floor_bandwidth(device, megabytes: int, threads: int = 1) -> tuple[float, float]:
+    """(numpy host copy bandwidth on one thread, the floor's bandwidth): the device's own wp.copy on CUDA, else the
+    host copy on ``threads`` threads (those the CPU launches use). Both in bytes read + written per second."""
     host = copy_bandwidth(megabytes)
-    return host, (copy_bandwidth(megabytes, device) if device.is_cuda else host)
+    if device.is_cuda:
+        return host, copy_bandwidth(megabytes, device)
+    return host, (host if threads == 1 else copy_bandwidth(megabytes, threads=threads))
 
 
-def floor_setup(parser: argparse.ArgumentParser, requested: str | None, megabytes: int, label: str):
-    """Pick the device, measure the copy bandwidths and print them: (device, its name, host bandwidth,
-    floor bandwidth) [bytes/s]. label: the run's settings for the first line (e.g. "float32, dt = ...")."""
+def floor_setup(parser: argparse.ArgumentParser, requested: str | None, megabytes: int, label: str,
+                threads: int = 1):
+    """Pick the device, measure the copy bandwidths and print them: (device, its name, host bandwidth on one
+    thread, floor bandwidth) [bytes/s]. label: the run's settings for the first line (e.g. "float32, dt = ...");
+    threads: the CPU threads the launches use, the floor's on the CPU (floor_bandwidth)."""
     device = pick_device(parser, requested)
-    host_bw, floor_bw = floor_bandwidth(device, megabytes)
+    host_bw, floor_bw = floor_bandwidth(device, megabytes, threads)
     name = device_name(device)
     print(f"warp {wp.__version__}, device {device.alias} ({name}), {label}")
     print(f"copy bandwidth (read + write): numpy {host_bw / 1e9:.2f} GB/s"
-          + (f", device wp.copy {floor_bw / 1e9:.1f} GB/s" if device.is_cuda else ""))
+          + (f", device wp.copy {floor_bw / 1e9:.1f} GB/s" if device.is_cuda else "")
+          + (f", numpy on {threads} threads {floor_bw / 1e9:.2f} GB/s" if device.is_cpu and threads > 1 else ""))
     return device, name, host_bw, floor_bw
 
 

@@ -11,8 +11,10 @@ Workloads (full sizes by default; --quick: smaller sizes and fewer steps, a coup
              MuJoCo: n/a (no mass-spring cloth).
   particles  benchmarks/particles.py's "box" scene (10^5 and 10^6 particles falling onto the ground, impulse
              contact, dt = 1/480 s), warp_sim with its guard on, against the copy-bandwidth floor measured in this
-             run (x and v read and written once a step); Newton SolverSemiImplicit (penalty particle-ground
-             contact), a Taichi kernel on one CPU thread (plane contact by impulse).
+             run (x and v read and written once a step); on the CPU warp_sim on every core (its default,
+             warp_sim.core.cpu_threads) and on one thread, each row followed by the floor of a copy on as many
+             threads; Newton SolverSemiImplicit (penalty particle-ground contact; one CPU thread, as Warp runs a
+             launch), a Taichi kernel (plane contact by impulse) on one CPU thread and on every core.
   pile       benchmarks/collision.py's pile of 100 bodies (boxes and spheres) on the ground at dt = 1/500 s: the
              step of Newton's own rigid-body examples and MuJoCo's default timestep, the same for every
              implementation: warp_sim (guard on), Newton SolverSemiImplicit and SolverXPBD (5 iterations, as in
@@ -61,6 +63,7 @@ import warp as wp
 from common import device_name, floor_bandwidth, markdown, pick_device
 
 import warp_sim as ws
+from warp_sim.core.cpu_threads import cpu_threads
 
 #: peer key -> (module, distribution)
 PEERS = {"newton": ("newton", "newton"), "taichi": ("taichi", "taichi"), "mujoco": ("mujoco", "mujoco"),
@@ -105,11 +108,17 @@ NOT_TAICHI_PILE = "n/a (Taichi is a kernel language with no rigid-body contact s
 def implementations(workload: str, device) -> list[dict]:
     """The rows of a workload, in table order: key, label, the peer it needs (None: warp_sim), why not (n/a)."""
     taichi = f"Taichi {'cuda' if device.is_cuda else 'cpu, 1 thread'}"
+    cores = cpu_threads()
+    threads = f", {cores} CPU threads" if device.is_cpu else ""
+    # on the CPU, warp_sim's particles on one thread too, and Taichi on as many threads as warp_sim
+    cpu_rows = [("warp_sim_1thread", "warp_sim (guard on, 1 CPU thread)", None)] if device.is_cpu else []
+    if device.is_cpu and cores > 1:
+        cpu_rows.append(("taichi_threads", f"Taichi cpu, {cores} threads, impulse ground", "taichi"))
     rows = {
         "cloth": [("warp_sim", "warp_sim (guard off)", None), ("warp_sim_guard", "warp_sim (guard on)", None),
                   ("newton", "Newton SemiImplicit", "newton"), ("taichi", f"{taichi}, gather", "taichi"),
                   ("mujoco", "MuJoCo", "mujoco", NOT_MUJOCO_CLOTH)],
-        "particles": [("warp_sim", "warp_sim (guard on)", None),
+        "particles": [("warp_sim", f"warp_sim (guard on{threads})", None)] + cpu_rows + [
                       ("newton", "Newton SemiImplicit (penalty ground, no drag)", "newton"),
                       ("taichi", f"{taichi}, impulse ground", "taichi"),
                       ("mujoco", "MuJoCo", "mujoco", NOT_MUJOCO_PARTICLES)],
@@ -395,14 +404,15 @@ def particle_depth(x: np.ndarray, radius: np.ndarray) -> float:
 def run_particles(key: str, n: int, cfg: dict, device, modules: dict) -> dict:
     scene = particles.make_scene(n)
     radius = scene.particle_array("radius")
-    if key == "warp_sim":
+    if key in ("warp_sim", "warp_sim_1thread"):
         implementation = WarpSimRun(ws.Simulator(scene, "symplectic_euler", device.alias, contact="impulse",
-                                                 guard=True))
+                                                 guard=True, cpu_threads=1 if key == "warp_sim_1thread" else None))
     elif key == "newton":
         implementation = NewtonParticles(modules["newton"], scene, device)
     else:
         implementation = TaichiParticles(modules["taichi"], scene, particles.DT,
-                                         *(("cuda", None) if device.is_cuda else ("cpu", 1)))
+                                         *(("cuda", None) if device.is_cuda else ("cpu", 1 if key == "taichi" else
+                                                                                  cpu_threads())))
     dt = particles.DT
     x0, v0 = (a.astype(np.float64) for a in implementation.arrays())
     implementation.advance(1, dt)
@@ -591,8 +601,8 @@ def table(rows: list[dict]) -> str:
         ratio = ratio_cell(row.get("reference_steps_per_s"), rate)
         if row["key"] == row.get("reference_key") and rate:
             ratio = "1.00x (ref)"
-        elif row["key"] == "floor" and rate and row.get("reference_steps_per_s"):
-            ratio += f" ({row['reference_steps_per_s'] / rate:.1%} of the floor)"
+        elif row["key"] == "floor" and rate and row.get("share_of"):
+            ratio = ratio_cell(row["share_of"], rate) + f" ({row['share_of'] / rate:.1%} of the floor)"
         cells.append([row["workload_label"], row["size_label"], row["label"], check.replace("|", "/"),
                       f"{rate:,.1f}" if rate else "-", ratio])
     return markdown(["workload", "size", "implementation", "check", "steps/s", "warp_sim / this"], cells,
@@ -605,8 +615,8 @@ def main(argv=None) -> None:
     parser.add_argument("--quick", action="store_true", help="small sizes, few steps (a couple of minutes)")
     parser.add_argument("--workloads", nargs="+", choices=WORKLOADS, default=list(WORKLOADS))
     parser.add_argument("--only", nargs="+", default=None, metavar="IMPL",
-                        help="only these implementations (warp_sim, warp_sim_guard, warp_sim_capture, newton, "
-                             "newton_xpbd, taichi, mujoco, mujoco_warp)")
+                        help="only these implementations (warp_sim, warp_sim_guard, warp_sim_capture, "
+                             "warp_sim_1thread, newton, newton_xpbd, taichi, taichi_threads, mujoco, mujoco_warp)")
     parser.add_argument("--pile-dt", type=collision.positive_time, default=PILE_DT,
                         help="the piles' step [s] (a number or a fraction; default 1/500)")
     parser.add_argument("--budget", type=float, default=None,
@@ -624,12 +634,15 @@ def main(argv=None) -> None:
     mode = "quick" if args.quick else "full"
     timeout = args.timeout or TIMEOUT[mode]
     peers = peer_status()
-    host_bw, floor_bw = floor_bandwidth(device, args.copy_mb)
+    threads = cpu_threads()
+    host_bw, floor_bw = floor_bandwidth(device, args.copy_mb, threads)
     name = device_name(device)
     print(f"warp {wp.__version__}, warp_sim {ws.__version__} on {device.alias} ({name}), {os.cpu_count()} cores; "
           + "; ".join(f"{key} {p['version'] if p['installed'] else 'not installed'}" for key, p in peers.items()))
     print(f"copy bandwidth (read + write): numpy {host_bw / 1e9:.2f} GB/s"
-          + (f", device wp.copy {floor_bw / 1e9:.1f} GB/s" if device.is_cuda else "") + f"; {mode} run", flush=True)
+          + (f", device wp.copy {floor_bw / 1e9:.1f} GB/s" if device.is_cuda else "")
+          + (f", numpy on {threads} threads {floor_bw / 1e9:.2f} GB/s" if device.is_cpu and threads > 1 else "")
+          + f"; {mode} run", flush=True)
 
     started = time.perf_counter()
     rows = []
@@ -656,11 +669,17 @@ def main(argv=None) -> None:
                     "workload_label": {"particles": "particles + ground"}.get(workload, workload)}
             for key, results in by_key.items():
                 rows.append({**base, "key": key, "label": labels[key], **results[n]})
-                if workload == "particles" and key == "warp_sim":
-                    floor = floor_bw / (particles.STATE_BYTES * n)
-                    rows.append({**base, "key": "floor", "status": "ok", "steps_per_s": floor,
-                                 "label": f"copy floor ({'wp.copy' if device.is_cuda else 'np.copyto'} "
-                                          f"{floor_bw / 1e9:.1f} GB/s, {particles.STATE_BYTES} B/particle)",
+                if workload == "particles" and key in ("warp_sim", "warp_sim_1thread"):
+                    # each warp_sim row is followed by the copy floor on as many threads, its share of it
+                    one = key == "warp_sim_1thread" or device.is_cuda or threads == 1
+                    bandwidth = host_bw if key == "warp_sim_1thread" else floor_bw
+                    method = "wp.copy" if device.is_cuda else f"np.copyto, {1 if one else threads} thread" + (
+                        "" if one else "s")
+                    rows.append({**base, "key": "floor", "status": "ok",
+                                 "steps_per_s": bandwidth / (particles.STATE_BYTES * n),
+                                 "share_of": results[n].get("steps_per_s"),
+                                 "label": f"copy floor ({method} {bandwidth / 1e9:.1f} GB/s, "
+                                          f"{particles.STATE_BYTES} B/particle)",
                                  "check": {"summary": "- (x and v read and written once a step)"}})
     print()
     print(table(rows))
@@ -670,7 +689,7 @@ def main(argv=None) -> None:
               "warp_sim_version": ws.__version__, "numpy_version": np.__version__, "peers": peers, "mode": mode,
               "settings": {w: SETTINGS[mode][w] for w in args.workloads}, "pile_dt": args.pile_dt,
               "budget_s": args.budget or BUDGET[mode], "timeout_s": timeout,
-              "numpy_copy_bytes_per_s": host_bw, "floor_bytes_per_s": floor_bw,
+              "cpu_threads": threads, "numpy_copy_bytes_per_s": host_bw, "floor_bytes_per_s": floor_bw,
               "floor_method": "wp.copy" if device.is_cuda else "np.copyto", "max_depth_m": MAX_DEPTH,
               "wall_s": time.perf_counter() - started, "rows": rows}
     args.out.write_text(json.dumps(result, indent=2) + "\n")

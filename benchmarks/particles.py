@@ -9,7 +9,9 @@
 Two cases. "box": N particles at random in a box above the ground (gravity, drag, ground),
 guard on and off; rows in --out. The floor of one step is the state read and written
 once (x and v, float32 vec3: 2 * N * 24 bytes) at the bandwidth of a large copy
-measured in the same run (numpy np.copyto on the CPU, wp.copy of device arrays on CUDA).
+measured in the same run (numpy np.copyto on the CPU, on as many threads as the simulator's CPU launches use
+(warp_sim.core.cpu_threads: every core unless WARP_SIM_CPU_THREADS says otherwise), wp.copy of device arrays on
+CUDA).
 
 "emitter": one disc emitter in steady state (births = deaths) with gravity, drag, curl
 noise (ws.Turbulence) and the ground; rate = live / lifetime, pool capacity
@@ -44,6 +46,7 @@ from common import KernelProfile, floor_setup, markdown, time_steps
 
 import warp_sim as ws
 from warp_sim import Scene, Simulator
+from warp_sim.core.cpu_threads import cpu_threads
 from warp_sim.stages import StageWriter, stage_layout
 
 DT = 1.0 / 480.0  # [s], 60 fps with 8 substeps
@@ -260,8 +263,9 @@ def main(argv=None) -> None:
     if args.emitter_lifetime < 2 * DT:
         parser.error(f"--emitter-lifetime must be at least {2 * DT:g} s (two steps)")
 
-    device, name, host_bw, floor_bw = floor_setup(parser, args.device, args.copy_mb, f"dt = {DT:.6g} s")
-    common = {"device": device.alias, "device_name": name, "warp_version": wp.__version__,
+    threads = cpu_threads()
+    device, name, host_bw, floor_bw = floor_setup(parser, args.device, args.copy_mb, f"dt = {DT:.6g} s", threads)
+    common = {"device": device.alias, "device_name": name, "cpu_threads": threads, "warp_version": wp.__version__,
               "warp_sim_version": ws.__version__, "numpy_version": np.__version__, "integrator": "symplectic_euler",
               "contact": "impulse", "precision": "float32", "dt": DT, "numpy_copy_bytes_per_s": host_bw,
               "floor_bytes_per_s": floor_bw, "floor_method": "wp.copy" if device.is_cuda else "np.copyto"}
