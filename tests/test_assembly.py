@@ -1,9 +1,14 @@
 """A scene allocates and compiles only what it uses: proven in a fresh process per scene."""
+import importlib
 import json
+import pkgutil
 import subprocess
 import sys
 
 import pytest
+import warp as wp
+
+import warp_sim.kernels as topics
 
 PROBE = r"""
 import json, pkgutil, sys
@@ -112,3 +117,15 @@ def test_the_modules_compiled_up_front_are_the_modules_launched(kind, path):
     (every kernel module of warp_sim.kernels is watched; the demo launches twelve of them)."""
     result = probe(kind, path)
     assert set(result["declared"]) == kernels(result)
+
+
+def test_every_kernel_module_has_a_compile_time_to_order_the_start_by():
+    """Simulator compiles the longest modules first by kernels.COMPILE_SECONDS: each module with kernels has a
+    positive entry, and no entry names a module that is not there."""
+    with_kernels = set()
+    for module in pkgutil.iter_modules(topics.__path__):
+        loaded = importlib.import_module(f"warp_sim.kernels.{module.name}")
+        if any(isinstance(value, wp.Kernel) for value in vars(loaded).values()):
+            with_kernels.add(module.name)
+    assert set(topics.COMPILE_SECONDS) == with_kernels
+    assert min(topics.COMPILE_SECONDS.values()) > 0.0

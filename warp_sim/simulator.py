@@ -5,7 +5,6 @@ import contextlib
 import math
 import os
 import signal
-import sys
 import threading
 import warnings
 
@@ -184,9 +183,8 @@ class Simulator(Persistent):
     def _load_kernels(self) -> None:
         """Compile (or load from Warp's cache) every kernel module the simulation launches, in parallel on all
         cores: a cold start compiles them side by side instead of one by one at their first launches. The
-        longest first (by the size of their source, a proxy for their compile time), so no core waits long."""
-        names = sorted(self.kernel_modules(), key=lambda name: -os.path.getsize(sys.modules[
-            f"{kernels.__name__}.{name}"].__file__))
+        longest first (kernels.COMPILE_SECONDS), so no core waits long at the end."""
+        names = sorted(self.kernel_modules(), key=lambda name: -kernels.COMPILE_SECONDS.get(name, 0.0))
         modules = [wp.get_module(f"{kernels.__name__}.{name}") for name in names]
         wp.force_load(self.model.device, modules=modules, max_workers=os.cpu_count() or 1)
 
