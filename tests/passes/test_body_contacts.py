@@ -383,3 +383,38 @@ def test_contact_margin_is_checked():
     scene.add_rigid_body(ws.Sphere(0.1), position=(0.0, 1.0, 0.0))
     with pytest.raises(ValueError, match="contact_margin"):
         ws.Simulator(scene, device="cpu", contact_margin=-1.0)
+
+
+def _tumbling_pile():
+    """Boxes and spheres, a little turned, dropped onto the ground and each other: many colours of manifolds,
+    body-body ones and ground ones."""
+    scene = ground_scene(restitution=0.3, friction=0.5)
+    rng = np.random.default_rng(3)
+    for k in range(24):
+        x, z = 0.25 * (k % 4) - 0.4, 0.25 * ((k // 4) % 3) - 0.25
+        position = (x + rng.uniform(-0.03, 0.03), 0.12 + 0.22 * (k // 12), z + rng.uniform(-0.03, 0.03))
+        axis, angle = rng.normal(size=3), rng.uniform(0.0, 0.4)
+        turn = (*(np.sin(angle / 2) * axis / np.linalg.norm(axis)), np.cos(angle / 2))   # (x, y, z, w)
+        shape = ws.Box((0.1, 0.08, 0.09)) if k % 2 == 0 else ws.Sphere(0.1)
+        scene.add_rigid_body(shape, position=position, orientation=turn)
+    return scene
+
+
+@pytest.mark.parametrize("h", [1.0 / 60.0, 1.0 / 24.0])
+def test_one_launch_per_run_of_colours_on_the_cpu_equals_one_per_colour_bit_for_bit(monkeypatch, h):
+    """On the CPU, uncaptured, a sweep launches a whole run of colours as one (a CPU launch runs its threads in
+    order): the same states as one launch per colour, bit for bit, with fewer launches, at frame-rate steps."""
+    results = {}
+    for merge in (True, False):
+        monkeypatch.setattr(ws.passes.body_contacts.BodyContacts, "merge_cpu_colours", merge)
+        sim = ws.Simulator(_tumbling_pile(), integrator="symplectic_euler", device="cpu")
+        sim.step(h, steps=int(1.5 / h))
+        launches = sim.model.launcher.launches
+        sim.step(h, steps=6)
+        colours = len(sim.body_contacts.manifolds.colours)
+        results[merge] = (sim.state.body_x.numpy(), sim.state.body_q.numpy(), sim.model.launcher.launches - launches)
+    (x1, q1, merged), (x2, q2, per_colour) = results[True], results[False]
+    assert colours >= 3 and np.isfinite(x1).all() and x1[:, 1].min() > 0.05   # resting, not through the ground
+    np.testing.assert_array_equal(x1, x2)
+    np.testing.assert_array_equal(q1, q2)
+    assert merged < per_colour

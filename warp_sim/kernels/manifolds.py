@@ -48,10 +48,16 @@ class ManifoldSet:
 @wp.func
 def manifold_rows(m: ManifoldSet, colour: int, thread: int):
     """(its pair, its first row, one past its last row) of the colour's manifold number ``thread``; the pair is
-    -1 past the colour's size (a captured launch runs more threads than the colour has)."""
-    if thread >= m.sizes[colour]:
-        return -1, 0, 0
-    p = m.order[m.starts[colour] + thread]
+    -1 past the colour's size (a captured launch runs more threads than the colour has). A negative ``colour``
+    is a run of consecutive colours from place -1 - colour of ``order`` on, launched as one with exactly their
+    manifolds' count of threads (on the CPU, whose launch runs its threads in order, the same sweep as a launch
+    per colour: passes.body_contacts)."""
+    place = -1 - colour + thread
+    if colour >= 0:
+        if thread >= m.sizes[colour]:
+            return -1, 0, 0
+        place = m.starts[colour] + thread
+    p = m.order[place]
     start = m.offsets[p]
     return p, start, start + m.counts[p]
 

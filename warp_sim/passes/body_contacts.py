@@ -30,6 +30,7 @@ Buffers of pairs and contacts grow as needed: no contact is dropped.
 """
 from __future__ import annotations
 
+import numpy as np
 import warp as wp
 
 from ..core.model import Model
@@ -48,7 +49,8 @@ class BodyContacts(Pass):
     position_response: the solver's beta (Solver.position_response): how far a velocity change moves a body
     slop: overlap the position projection leaves, so resting contacts stay found [m]
     bounce_speed: slower impacts do not bounce [m/s] (None: 2 |g| h)
-    sweeps: Gauss-Seidel sweeps of the collision, contact and position stages (each one launch per colour)
+    sweeps: Gauss-Seidel sweeps of the collision, contact and position stages (each one launch per colour; on
+        the CPU, uncaptured, one launch per run of colours)
     iterations: how often a manifold's own contacts are iterated within one sweep, per stage
     tolerance: a manifold's resting iterations stop once no update changes a contact velocity by more [m/s]
     relax: the share of a body-body overlap the projection removes per step [1] (all of it against statics)
@@ -59,6 +61,7 @@ class BodyContacts(Pass):
 
     kernels = ("contacts", "detection", "manifolds", "rigid")
     capturable = True   # captured steps launch over the last counts with headroom, gated on the device (replay_held)
+    merge_cpu_colours = True   # uncaptured on the CPU, a run of colours is one launch (_sweep); False: one each
 
     persistent = ("_capacity", "table.used", "table.keys", "table.cells", "table.n", "table.t")   # the warm start
 
@@ -90,6 +93,7 @@ class BodyContacts(Pass):
         self._capacity = 0
         self._ensure(self.detection.contacts.capacity)
         self._recorded_sizes = None
+        self._places = None   # uncaptured on the CPU: each colour's first place in the manifolds' order (_sweep)
 
     def _ensure(self, capacity: int) -> None:
         """Per-contact rows and the warm-start table for at least ``capacity`` contacts (they only grow)."""
@@ -151,6 +155,11 @@ class BodyContacts(Pass):
                                                              end.bodies, mass, T(h), T(bounce), T(self.slop), rows,
                                                              work, manifolds.impacts])
         colours, body_colours, impacts = manifolds.colour()
+        # on the CPU, uncaptured: each colour's first place in the manifolds' order, for _sweep's one launch a run
+        self._places = None
+        if m.device.is_cpu and not capturing:
+            firsts = np.cumsum([0] + [n for _, n in colours[:-1]]).tolist()
+            self._places = {k: first for (k, _), first in zip(colours, firsts)}
         (collision_sweeps, contact_sweeps, position_sweeps), (collision_iterations, contact_iterations,
                                                               position_iterations) = self.sweeps, self.iterations
 
@@ -223,9 +232,13 @@ class BodyContacts(Pass):
         threads; one int read back). False: the step must be done again, uncaptured."""
         return int(self.manifolds.missed.numpy()[0]) == 0
 
-    @staticmethod
-    def _sweep(prepared, colours: list[tuple[int, int]], sweeps: int) -> None:
+    def _sweep(self, prepared, colours: list[tuple[int, int]], sweeps: int) -> None:
         """``sweeps`` Gauss-Seidel sweeps of a prepared manifold kernel: one launch per colour, a thread per manifold
-        (input 1 of the kernel is the colour; it launches at least as many threads as the colour has manifolds)."""
-        if colours:
-            prepared.sweep(1, colours, sweeps)
+        (input 1 of the kernel is the colour; it launches at least as many threads as the colour has manifolds).
+        Uncaptured on the CPU, whose launch runs its threads one after another in order, one launch for the whole
+        run of colours instead (kernels.manifolds.manifold_rows), the same sweep bit for bit."""
+        if not colours:
+            return
+        if self.merge_cpu_colours and self._places is not None:
+            colours = [(-1 - self._places[colours[0][0]], sum(n for _, n in colours))]
+        prepared.sweep(1, colours, sweeps)
