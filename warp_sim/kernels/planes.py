@@ -5,9 +5,10 @@ are kept on the side n_k points to (n_k . x >= offset_k + r). Restitution e and
 friction mu of a contact are the plane's values, averaged with the particle's own
 where the particle has one (a negative particle value means "none").
 
-Public (``__all__``): resolve_plane_impacts, the module's only kernel.
-Private: the Warp functions contact_material, first_contact_time and coulomb_friction,
-for the simulator's own use; their arguments may change between releases.
+Public (``__all__``): resolve_plane_impacts.
+Private: resolve_plane_impacts_chunked (the same, many particles a thread) and the Warp functions
+contact_material, first_contact_time, coulomb_friction, clear_of_planes, outside_planes, plane_response and
+resolve_particle, for the simulator's own use; their arguments may change between releases.
 """
 from typing import Any
 
@@ -106,6 +107,17 @@ def clear_of_planes(x_start: Any, v_start: Any, v: Any, r: Any, normals: wp.arra
         if wp.dot(n, x_start) - offsets[k] - r <= type(h)(4.0) * reach:
             clear = False
     return clear
+
+
+@wp.func
+def outside_planes(x: Any, r: Any, normals: wp.array(dtype=Any), offsets: wp.array(dtype=Any)):
+    """Whether a particle of radius r [m] at x [m] is on the allowed side of every plane, by r or more (so that
+    plane_response's final projection leaves it where it is)."""
+    outside = bool(True)
+    for k in range(normals.shape[0]):
+        if wp.dot(normals[k], x) < offsets[k] + r:
+            outside = False
+    return outside
 
 
 @wp.func
@@ -217,14 +229,41 @@ def resolve_plane_impacts(
         h: the step [s]
         touched_out: set to 1 for each particle that touched a plane in the step, or an empty array [1]
     """
-    i = wp.tid()
+    resolve_particle(wp.tid(), x_start, v_start, x, v, material, planes, h, touched_out)
+
+
+@wp.func
+def resolve_particle(i: int, x_start: wp.array(dtype=Any), v_start: wp.array(dtype=Any), x: wp.array(dtype=Any),
+                     v: wp.array(dtype=Any), material: Any, planes: Any, h: Any, touched_out: wp.array(dtype=wp.int32)):
+    """resolve_plane_impacts' work for particle i."""
     if material.inv_mass[i] == type(h)(0.0):
         return
-    xe, ve, touched = plane_response(i, x_start[i], v_start[i], x[i], v[i], material, planes, h)
+    xs = x_start[i]
+    vs = v_start[i]
+    x1 = x[i]
+    v1 = v[i]
+    # clear of every plane over the step (no contact to find) and at its end (nothing to project): unchanged
+    if clear_of_planes(xs, vs, v1, material.radius[i], planes.normal, planes.offset, h) and outside_planes(
+            x1, material.radius[i], planes.normal, planes.offset):
+        return
+    xe, ve, touched = plane_response(i, xs, vs, x1, v1, material, planes, h)
     if touched != 0:
         x[i] = xe
         v[i] = ve
         if touched_out.shape[0] > 0:
             touched_out[i] = 1
+
+
+@wp.kernel
+def resolve_plane_impacts_chunked(x_start: wp.array(dtype=Any), v_start: wp.array(dtype=Any),
+                                  x: wp.array(dtype=Any), v: wp.array(dtype=Any), material: Any, planes: Any,
+                                  h: Any, touched_out: wp.array(dtype=wp.int32), chunk: int):
+    """resolve_plane_impacts for the particles chunk * tid to chunk * (tid + 1) - 1 (launch with dim =
+    ceil(particles / chunk)): a CPU thread first copies all its arguments, the structs' arrays too, so there a
+    thread takes many particles (passes.plane_contacts); the same result particle by particle."""
+    first = wp.tid() * chunk
+    for i in range(first, wp.min(first + chunk, x.shape[0])):
+        resolve_particle(i, x_start, v_start, x, v, material, planes, h, touched_out)
+
 
 register(globals())

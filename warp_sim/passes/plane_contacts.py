@@ -22,14 +22,16 @@ class PlaneImpacts(Pass):
 
     kernels = ("planes",)
     capturable = True
+    cpu_chunk = 256   # particles a CPU thread takes (kernels.planes.resolve_plane_impacts_chunked); one on CUDA
 
     def __init__(self, model: Model):
         self.model = model
         self.touched = model.empty(wp.int32)
+        self.chunk = self.cpu_chunk if model.device.is_cpu else 1
 
     def apply(self, start: State, end: State, t: float, h: float) -> None:
         """Correct ``end`` in place for every plane crossed between ``start`` and ``end`` (h seconds)."""
         m = self.model
-        m.launch(plane_kernels.resolve_plane_impacts, m.particle_count,
+        m.launch(plane_kernels.resolve_plane_impacts_chunked, -(-m.particle_count // self.chunk),
                  [start.particle_x, start.particle_v, end.particle_x, end.particle_v, m.particle_material, m.planes,
-                  m.scalar(h), self.touched])
+                  m.scalar(h), self.touched, self.chunk])
