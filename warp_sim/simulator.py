@@ -74,7 +74,8 @@ class Simulator(Persistent):
         it, and it runs uncaptured
     cpu_threads: the CPU cores a launch over many independent elements may use at once (the fused particle step
         of 2 x 16384 particles or more: core.cpu_threads), the same states bit for bit; None: the environment
-        variable WARP_SIM_CPU_THREADS, else every core this process may use
+        variable WARP_SIM_CPU_THREADS, else every core this process may use. A captured step (capture=True)
+        runs each launch on one thread: Warp's CPU graph replays its launches one after another
 
     With "rk45" each ``step(dt)`` lands exactly on t + dt, taking as many internal steps as the tolerance
     needs (``sim.integrator.stats()`` counts them), so ``run(..., substeps=1)`` is the natural choice.

@@ -1,10 +1,13 @@
 """CPU launches split into pieces on several cores (core.cpu_threads): the same states bit for bit as one thread,
 the guard's record naming the lowest bad particle, and the thread count's checks."""
+import ctypes
+import time
+
 import numpy as np
 import pytest
 
 import warp_sim as ws
-from warp_sim.core.cpu_threads import VARIABLE, available_cores, cpu_threads
+from warp_sim.core.cpu_threads import VARIABLE, CpuPool, available_cores, cpu_threads
 from warp_sim.solvers.fused import FusedParticleStep
 
 H = 1.0 / 60.0
@@ -91,3 +94,22 @@ def test_thread_counts_are_checked(monkeypatch):
     for value in (0, 2.0, True):
         with pytest.raises(ValueError, match="cpu_threads"):
             _simulator(_particles("float32", n=10), value)
+
+
+def test_an_interrupted_call_returns_only_once_every_piece_is_done():
+    """Ctrl-C (here an exception in the caller's own piece) while workers still run their pieces: call() waits
+    for them before it raises, so no piece writes into a state after the Simulator has moved on."""
+    finished = []
+
+    def entry(bounds, _arguments):
+        piece = bounds._obj.value
+        if piece == 0:
+            raise KeyboardInterrupt
+        time.sleep(0.2)
+        finished.append(piece)
+
+    pool = CpuPool(3)
+    calls = [(ctypes.c_int(k), ctypes.c_int(0)) for k in range(3)]
+    with pytest.raises(KeyboardInterrupt):
+        pool.call(entry, calls)
+    assert sorted(finished) == [1, 2]

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import ctypes
 import os
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 
 from ..util import checks
 
@@ -69,6 +69,10 @@ class CpuPool:
             self._pid = os.getpid()
         futures = [self._workers.submit(entry, ctypes.byref(a), ctypes.byref(b)) for a, b in calls[1:]]
         first_bounds, first_arguments = calls[0]
-        entry(ctypes.byref(first_bounds), ctypes.byref(first_arguments))
-        for future in futures:
-            future.result()
+        try:
+            entry(ctypes.byref(first_bounds), ctypes.byref(first_arguments))
+            for future in futures:
+                future.result()
+        except BaseException:   # Ctrl-C or SIGTERM in the wait: no piece may still be writing once this returns
+            wait(futures)
+            raise
