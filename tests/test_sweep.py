@@ -15,8 +15,9 @@ from pxr import Usd
 distributed = pytest.importorskip("distributed")
 
 import warp_sim as ws  # noqa: E402
-from warp_sim import studies  # noqa: E402
+from warp_sim import cluster, studies  # noqa: E402
 from warp_sim.cli import main  # noqa: E402
+from warp_sim.core.cpu_threads import VARIABLE, available_cores  # noqa: E402
 
 H0, RADIUS = 1.0, 0.01   # drop height of the ball's bottom [m], its radius [m]
 
@@ -169,3 +170,15 @@ def test_the_accuracy_study_on_two_workers_gives_the_same_errors(two_workers):
     def untimed(rows):
         return repr([{k: v for k, v in row.items() if k not in timed} for row in rows])
     assert untimed(spread.rows) == untimed(alone.rows) and repr(spread.orders) == repr(alone.orders)
+
+
+def test_local_workers_share_the_cores_between_their_cpu_launches(monkeypatch):
+    """connect()'s LocalCluster gives each worker cores / workers CPU threads (WARP_SIM_CPU_THREADS), so that the
+    simulations of a sweep do not each take every core; a value the user set is kept."""
+    monkeypatch.delenv(VARIABLE, raising=False)
+    with cluster.connect(workers=2) as client:
+        seen = set(client.run(lambda: os.environ.get(VARIABLE)).values())
+    assert seen == {str(max(1, available_cores() // 2))}
+    monkeypatch.setenv(VARIABLE, "3")
+    with cluster.connect(workers=1) as client:
+        assert set(client.run(lambda: os.environ.get(VARIABLE)).values()) == {"3"}

@@ -1,7 +1,9 @@
 """Where many runs go: a Dask cluster, and a map of independent tasks over it.
 
 ``connect()`` gives a ``dask.distributed.Client``: the one given, one connected to a scheduler's address, or an
-embedded ``LocalCluster`` of worker processes with one thread each, listening on localhost only (closed on exit).
+embedded ``LocalCluster`` of worker processes with one thread each, listening on localhost only (closed on exit),
+whose simulations share the cores: each worker's CPU launches use cores / workers threads (WARP_SIM_CPU_THREADS,
+core.cpu_threads), unless that variable is set already.
 Nothing else in warp_sim knows which. ``run_tasks`` submits one task per item, each retried by Dask if it raises
 or its worker dies (``retries``), and hands back every result as it comes, with a progress bar.
 
@@ -15,6 +17,7 @@ import os
 
 from tqdm.auto import tqdm
 
+from .core import cpu_threads
 from .util import checks
 
 #: retries of a task whose function raised or whose worker died (Dask reschedules a lost task by itself too)
@@ -49,8 +52,11 @@ def connect(client=None, scheduler: str | None = None, workers: int | None = Non
             yield connected
         return
     count = checks.count("workers", (os.cpu_count() or 1) if workers is None else workers)
+    # each worker's CPU launches share the cores with the others' (core.cpu_threads), unless the user said
+    threads = os.environ.get(cpu_threads.VARIABLE) or str(max(1, cpu_threads.available_cores() // count))
     with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=":0", silence_logs=40) as cluster, Client(cluster) as local:   # a free port
+                      dashboard_address=":0", silence_logs=40, env={cpu_threads.VARIABLE: threads}) as cluster, \
+            Client(cluster) as local:   # a free port
         yield local
 
 
