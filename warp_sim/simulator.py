@@ -73,7 +73,8 @@ class Simulator(Persistent):
         done again uncaptured and the graphs recorded afresh. Otherwise a warning names the parts that do not allow
         it, and it runs uncaptured
     cpu_threads: the CPU cores a launch over many independent elements may use at once (the fused particle step
-        of 2 x 16384 particles or more: core.cpu_threads), the same states bit for bit; None: the environment
+        and the plane pass of 2 x 16384 particles or more, the solvers' elementwise kernels: core.cpu_threads),
+        the same states bit for bit; None: the environment
         variable WARP_SIM_CPU_THREADS, else every core this process may use. A captured step (capture=True)
         runs each launch on one thread: Warp's CPU graph replays its launches one after another
 

@@ -8,6 +8,8 @@ import pytest
 
 import warp_sim as ws
 from warp_sim.core.cpu_threads import VARIABLE, CpuPool, available_cores, cpu_threads
+from warp_sim.core.launcher import Launcher
+from warp_sim.passes.plane_contacts import PlaneImpacts
 from warp_sim.solvers.fused import FusedParticleStep
 
 H = 1.0 / 60.0
@@ -45,6 +47,29 @@ def test_pieces_on_several_threads_give_the_states_of_one_thread_bit_for_bit(sma
         states.append((sim.state.particle_x.numpy(), sim.state.particle_v.numpy()))
     (x1, v1), (x3, v3) = states
     assert np.isfinite(x1).all() and x1[:, 1].min() >= 0.02 - 1e-5   # resting on the ground, not through it
+    np.testing.assert_array_equal(x3, x1)
+    np.testing.assert_array_equal(v3, v1)
+
+
+@pytest.mark.parametrize("integrator, h", [("rk4", H), ("verlet", 1.0 / 24.0), ("midpoint", H)])
+def test_the_generic_path_on_several_threads_gives_the_states_of_one_thread_bit_for_bit(monkeypatch, integrator, h):
+    """The generic path's elementwise kernels (axpy, rk4_combine, copy, the particle accelerations) run over views
+    of their arrays, the plane pass from its bases, as pieces at once: the states of one thread, bit for bit."""
+    monkeypatch.setattr(Launcher, "elementwise_piece", 500)
+    monkeypatch.setattr(PlaneImpacts, "min_piece", 200)
+    states = []
+    for threads in (1, 3):
+        sim = ws.Simulator(_particles("float32"), integrator=integrator, device="cpu", cpu_threads=threads)
+        sim.step(h, steps=40)
+        assert sim.fused is None and (sim.impacts.pieces == 15) and (len(sim.model.launcher._split) > 0) == (
+            threads > 1)   # the generic path, split into pieces
+        launches = sim.model.launcher.launches
+        sim.step(h)
+        states.append((sim.state.particle_x.numpy(), sim.state.particle_v.numpy(),
+                       sim.model.launcher.launches - launches))
+    (x1, v1, launches1), (x3, v3, launches3) = states
+    assert np.isfinite(x1).all() and x1[:, 1].min() >= 0.02 - 1e-5
+    assert launches3 == launches1   # a launch in pieces counts once
     np.testing.assert_array_equal(x3, x1)
     np.testing.assert_array_equal(v3, v1)
 
@@ -109,7 +134,7 @@ def test_an_interrupted_call_returns_only_once_every_piece_is_done():
         finished.append(piece)
 
     pool = CpuPool(3)
-    calls = [(ctypes.c_int(k), ctypes.c_int(0)) for k in range(3)]
+    calls = [(entry, ctypes.c_int(k), ctypes.c_int(0)) for k in range(3)]
     with pytest.raises(KeyboardInterrupt):
-        pool.call(entry, calls)
+        pool.call(calls)
     assert sorted(finished) == [1, 2]

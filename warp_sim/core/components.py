@@ -39,12 +39,13 @@ class Particles(Component):
 
     def velocity_derivative(self, state: State, t: float, out: State) -> None:
         m = self.model
-        m.launch(particle_kernels.particle_acceleration, m.particle_count,
-                 [state.particle_v, self.forces.particle_f, m.particle_inv_mass, m.gravity, m.drag, m.wind,
-                  out.particle_v])
+        m.launcher.launch_elementwise(particle_kernels.particle_acceleration, m.particle_count,
+                                      [state.particle_v, self.forces.particle_f, m.particle_inv_mass, m.gravity,
+                                       m.drag, m.wind, out.particle_v])
 
     def position_derivative(self, positions: State, velocities: State, out: State) -> None:
-        self.model.launch(integrate.copy, self.model.particle_count, [velocities.particle_v, out.particle_x])
+        self.model.launcher.launch_elementwise(integrate.copy, self.model.particle_count,
+                                               [velocities.particle_v, out.particle_x])
 
     def guard_inputs(self, state: State):
         return guard_kernels.check_finite_and_bounded, self.model.particle_count, [state.particle_x, state.particle_v]

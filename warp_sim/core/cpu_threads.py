@@ -1,5 +1,6 @@
 """Threads for CPU launches: Warp runs a CPU launch's threads one after another on one core, so a launch whose
-elements are independent is split into pieces that run at once, one per core (``Prepared.run_pieces``).
+elements are independent is split into pieces that run at once, one per core (``Prepared.run_pieces`` for a
+kernel that adds a ``base`` to wp.tid(), ``Launcher.launch_elementwise`` over views of the arrays).
 
 Warp's compiled CPU entry point is called through ctypes, which releases Python's lock for the call, so pieces
 called from several Python threads run in parallel. Only for kernels whose threads write disjoint elements:
@@ -61,16 +62,18 @@ class CpuPool:
             pool = cls._shared[threads] = cls(threads)
         return pool
 
-    def call(self, entry, calls: list[tuple]) -> None:
-        """entry(byref(a), byref(b)) for every (a, b) of ``calls`` (a CPU entry point and its launch bounds and
-        arguments), the first on this thread and the rest on the workers at once; returns when all have."""
+    def call(self, calls: list[tuple]) -> None:
+        """entry(byref(bounds), byref(arguments)) for every (entry, bounds, arguments) of ``calls`` (a CPU entry point,
+        its launch bounds and arguments), the first on this thread and the rest on the workers at once; returns when
+        all have."""
         if self._workers is None or self._pid != os.getpid():   # a forked child has none of its parent's threads
             self._workers = ThreadPoolExecutor(max(1, self.threads - 1), thread_name_prefix="warp_sim_cpu")
             self._pid = os.getpid()
-        futures = [self._workers.submit(entry, ctypes.byref(a), ctypes.byref(b)) for a, b in calls[1:]]
-        first_bounds, first_arguments = calls[0]
+        futures = [self._workers.submit(entry, ctypes.byref(bounds), ctypes.byref(arguments))
+                   for entry, bounds, arguments in calls[1:]]
+        entry, bounds, arguments = calls[0]
         try:
-            entry(ctypes.byref(first_bounds), ctypes.byref(first_arguments))
+            entry(ctypes.byref(bounds), ctypes.byref(arguments))
             for future in futures:
                 future.result()
         except BaseException:   # Ctrl-C or SIGTERM in the wait: no piece may still be writing once this returns

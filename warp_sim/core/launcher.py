@@ -152,9 +152,9 @@ class Prepared:
             bounds.shape[0] = bounds.size = end - first
             piece_arguments = type(arguments).from_buffer_copy(arguments)
             setattr(piece_arguments, names[base], first)
-            calls.append((bounds, piece_arguments))
+            calls.append((forward, bounds, piece_arguments))
         launcher.launches += 1
-        pool.call(forward, calls)
+        pool.call(calls)
 
     def _timed(self, dim: int) -> None:
         """run() with the device synchronised around the launch, its time and argument bytes added to the
@@ -202,10 +202,12 @@ class Launcher:
     profile: None, or a dict each launch adds to, per kernel name [launches, seconds, argument bytes], the device
         synchronised around each launch (benchmarks/common.KernelProfile)
     capturing: True while core.capture records a graph: every launch then goes through Warp
-    pool: None, or the CPU threads a launch split into pieces runs on (Prepared.run_pieces; core.cpu_threads)
+    pool: None, or the CPU threads a launch split into pieces runs on (Prepared.run_pieces, launch_elementwise;
+        core.cpu_threads)
     """
 
     capacity = 512
+    elementwise_piece = 32768   # elements a piece of launch_elementwise holds at least (a hand-off costs ~10 us)
 
     def __init__(self, device):
         self.device = device
@@ -216,6 +218,7 @@ class Launcher:
         self.profile: dict | None = None
         self.capturing = False   # a graph is being recorded (core.capture): no direct CPU calls
         self.pool = None   # the CPU threads of run_pieces (core.cpu_threads.CpuPool; None: one)
+        self._split: dict[tuple, list] = {}   # launch_elementwise's pieces: (Prepared on views, threads) each
 
     def prepare(self, kernel, dim: int, inputs: list) -> Prepared:
         """The recorded launch of ``kernel`` on these arrays and structs (recorded now if new), its scalars set
@@ -237,3 +240,33 @@ class Launcher:
         if dim == 0:
             return
         self.prepare(kernel, dim, inputs).run(dim)
+
+    def launch_elementwise(self, kernel, dim: int, inputs: list) -> None:
+        """launch() of a kernel whose thread i writes element i of its arrays of length ``dim`` and reads only
+        element i of them (other arrays: read whole). On the CPU's pool (core.cpu_threads), from 2 x
+        elementwise_piece elements, it runs as pieces at once, each the same kernel over views of those arrays
+        (recorded once per split); the same result element by element."""
+        pool = self.pool
+        pieces = 1 if pool is None else min(pool.threads, dim // self.elementwise_piece)
+        if pieces <= 1 or self.capturing or self.log is not None or self.profile is not None:
+            self.launch(kernel, dim, inputs)
+            return
+        key = (kernel, dim, pieces) + tuple(id(a) if _referenced(a) else None for a in inputs)
+        split = self._split.get(key)
+        if split is None:
+            if len(self._split) >= self.capacity:
+                self._split.clear()
+            cuts = [k * dim // pieces for k in range(pieces + 1)]
+            split = self._split[key] = [
+                (self.prepare(kernel, end - first, [a[first:end] if isinstance(a, wp.array) and a.shape[0] == dim
+                                                    else a for a in inputs]), end - first)
+                for first, end in zip(cuts, cuts[1:])]
+        for prepared, _ in split:
+            for i in prepared.scalars:
+                prepared.set(i, inputs[i])
+        if any(prepared.direct is None for prepared, _ in split):   # not yet launched once: one after another
+            for prepared, threads in split:
+                prepared.run(threads)
+            return
+        self.launches += 1
+        pool.call([(p.direct[0], p.command.params[0], p.direct[1]) for p, _ in split])

@@ -257,11 +257,12 @@ def resolve_particle(i: int, x_start: wp.array(dtype=Any), v_start: wp.array(dty
 @wp.kernel
 def resolve_plane_impacts_chunked(x_start: wp.array(dtype=Any), v_start: wp.array(dtype=Any),
                                   x: wp.array(dtype=Any), v: wp.array(dtype=Any), material: Any, planes: Any,
-                                  h: Any, touched_out: wp.array(dtype=wp.int32), chunk: int):
-    """resolve_plane_impacts for the particles chunk * tid to chunk * (tid + 1) - 1 (launch with dim =
-    ceil(particles / chunk)): a CPU thread first copies all its arguments, the structs' arrays too, so there a
-    thread takes many particles (passes.plane_contacts); the same result particle by particle."""
-    first = wp.tid() * chunk
+                                  h: Any, touched_out: wp.array(dtype=wp.int32), base: int, chunk: int):
+    """resolve_plane_impacts for the particles chunk * (base + tid) to chunk * (base + tid + 1) - 1 (launch with
+    dim = ceil(particles / chunk), base 0, or in pieces from their bases: core.cpu_threads): a CPU thread first
+    copies all its arguments, the structs' arrays too, so there a thread takes many particles
+    (passes.plane_contacts); the same result particle by particle."""
+    first = (base + wp.tid()) * chunk
     for i in range(first, wp.min(first + chunk, x.shape[0])):
         resolve_particle(i, x_start, v_start, x, v, material, planes, h, touched_out)
 

@@ -23,15 +23,20 @@ class PlaneImpacts(Pass):
     kernels = ("planes",)
     capturable = True
     cpu_chunk = 256   # particles a CPU thread takes (kernels.planes.resolve_plane_impacts_chunked); one on CUDA
+    min_piece = 16384   # particles a piece of a CPU launch holds at least (core.cpu_threads)
+    BASE = 8   # the kernel's input that is a piece's first thread
 
     def __init__(self, model: Model):
         self.model = model
         self.touched = model.empty(wp.int32)
         self.chunk = self.cpu_chunk if model.device.is_cpu else 1
+        #: pieces of a CPU launch at most (core.cpu_threads), each of min_piece particles or more; one on CUDA
+        self.pieces = max(1, model.particle_count // self.min_piece) if model.device.is_cpu else 1
 
     def apply(self, start: State, end: State, t: float, h: float) -> None:
         """Correct ``end`` in place for every plane crossed between ``start`` and ``end`` (h seconds)."""
         m = self.model
-        m.launch(plane_kernels.resolve_plane_impacts_chunked, -(-m.particle_count // self.chunk),
-                 [start.particle_x, start.particle_v, end.particle_x, end.particle_v, m.particle_material, m.planes,
-                  m.scalar(h), self.touched, self.chunk])
+        threads = -(-m.particle_count // self.chunk)
+        m.launcher.prepare(plane_kernels.resolve_plane_impacts_chunked, threads, [
+            start.particle_x, start.particle_v, end.particle_x, end.particle_v, m.particle_material, m.planes,
+            m.scalar(h), self.touched, 0, self.chunk]).run_pieces(threads, self.BASE, self.pieces)

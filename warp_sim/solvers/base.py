@@ -43,6 +43,7 @@ class Integrator(Persistent):
                                                   "make a new one for each Simulator")
         self.scalar = dynamics.model.scalar
         self.launch = dynamics.model.launch
+        self.launch_elementwise = dynamics.model.launcher.launch_elementwise
         self.allocate(dynamics)        # may refuse the dynamics (ValueError): the solver stays unbound then
         self.dynamics = dynamics
         return self
@@ -52,7 +53,7 @@ class Integrator(Persistent):
 
     def axpy(self, y, h: float, dy, out) -> None:
         """out = y + h dy over flat buffers (or blocks) of equal length."""
-        self.launch(integrate.axpy, y.shape[0], [y, self.scalar(h), dy, out])
+        self.launch_elementwise(integrate.axpy, y.shape[0], [y, self.scalar(h), dy, out])
 
     def step(self, state_in: State, state_out: State, t: float, h: float) -> None:
         raise NotImplementedError

@@ -54,5 +54,5 @@ class RK4(Integrator):
         f(self.trial, t + 0.5 * h, k3)
         self.axpy(state_in.y, h, k3.y, self.trial.y)
         f(self.trial, t + h, k4)
-        self.launch(integrate.rk4_combine, state_in.y.shape[0],
+        self.launch_elementwise(integrate.rk4_combine, state_in.y.shape[0],
                     [state_in.y, self.scalar(h), k1.y, k2.y, k3.y, k4.y, state_out.y])
