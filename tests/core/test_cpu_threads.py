@@ -7,10 +7,9 @@ import numpy as np
 import pytest
 
 import warp_sim as ws
+from warp_sim.core import cpu_threads as cpu_threads_module
 from warp_sim.core.cpu_threads import VARIABLE, CpuPool, available_cores, cpu_threads
 from warp_sim.core.launcher import Launcher
-from warp_sim.passes.plane_contacts import PlaneImpacts
-from warp_sim.solvers.fused import FusedParticleStep
 
 H = 1.0 / 60.0
 
@@ -29,7 +28,7 @@ def _particles(precision, n=3000, seed=5):
 @pytest.fixture
 def small_pieces(monkeypatch):
     """Pieces of 200 particles, so that a test scene of thousands splits into many."""
-    monkeypatch.setattr(FusedParticleStep, "min_piece", 200)
+    monkeypatch.setattr(cpu_threads_module, "MIN_PIECE", 200)
 
 
 def _simulator(scene, threads, **options):
@@ -56,7 +55,7 @@ def test_the_generic_path_on_several_threads_gives_the_states_of_one_thread_bit_
     """The generic path's elementwise kernels (axpy, rk4_combine, copy, the particle accelerations) run over views
     of their arrays, the plane pass from its bases, as pieces at once: the states of one thread, bit for bit."""
     monkeypatch.setattr(Launcher, "elementwise_piece", 500)
-    monkeypatch.setattr(PlaneImpacts, "min_piece", 200)
+    monkeypatch.setattr(cpu_threads_module, "MIN_PIECE", 200)
     states = []
     for threads in (1, 3):
         sim = ws.Simulator(_particles("float32"), integrator=integrator, device="cpu", cpu_threads=threads)
@@ -100,8 +99,8 @@ def test_the_guard_names_the_lowest_bad_particle_whichever_piece_holds_it(small_
 
 
 def test_a_small_scene_stays_one_piece():
-    """Below 2 x min_piece particles a second thread costs more than it saves: one piece."""
-    assert _simulator(_particles("float32", n=2 * FusedParticleStep.min_piece - 1), 4).fused.pieces == 1
+    """Below 2 x MIN_PIECE particles a second thread costs more than it saves: one piece."""
+    assert _simulator(_particles("float32", n=2 * cpu_threads_module.MIN_PIECE - 1), 4).fused.pieces == 1
 
 
 def test_thread_counts_are_checked(monkeypatch):

@@ -44,6 +44,19 @@ def cpu_threads(value: int | None = None) -> int:
     return number
 
 
+#: elements a CPU thread of a chunked kernel takes (it first copies all its arguments, the structs' arrays too)
+CPU_CHUNK = 256
+#: elements a piece of a CPU launch holds at least: handing a piece to another thread costs about 10 us
+MIN_PIECE = 16384
+
+
+def chunked_launch(device, count: int) -> tuple[int, int, int]:
+    """(elements a thread takes, threads, pieces at most) of a chunked kernel's launch over ``count`` elements:
+    CPU_CHUNK a thread and a piece per MIN_PIECE elements on the CPU; one a thread, one piece on CUDA."""
+    chunk = CPU_CHUNK if device.is_cpu else 1
+    return chunk, -(-count // chunk), max(1, count // MIN_PIECE) if device.is_cpu else 1
+
+
 class CpuPool:
     """``threads`` CPU threads: the caller's and threads - 1 workers, started at the first use (none for one)."""
 

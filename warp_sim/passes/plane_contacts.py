@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from ..core.cpu_threads import chunked_launch
 from ..core.model import Model
 from ..core.protocols import Pass
 from ..core.state import State
@@ -22,21 +23,17 @@ class PlaneImpacts(Pass):
 
     kernels = ("planes",)
     capturable = True
-    cpu_chunk = 256   # particles a CPU thread takes (kernels.planes.resolve_plane_impacts_chunked); one on CUDA
-    min_piece = 16384   # particles a piece of a CPU launch holds at least (core.cpu_threads)
-    BASE = 8   # the kernel's input that is a piece's first thread
+    BASE = 8   # the kernel's input that is a piece's first thread (core.cpu_threads)
 
     def __init__(self, model: Model):
         self.model = model
         self.touched = model.empty(wp.int32)
-        self.chunk = self.cpu_chunk if model.device.is_cpu else 1
-        #: pieces of a CPU launch at most (core.cpu_threads), each of min_piece particles or more; one on CUDA
-        self.pieces = max(1, model.particle_count // self.min_piece) if model.device.is_cpu else 1
+        #: particles a thread takes, threads, pieces at most (core.cpu_threads.chunked_launch)
+        self.chunk, self.threads, self.pieces = chunked_launch(model.device, model.particle_count)
 
     def apply(self, start: State, end: State, t: float, h: float) -> None:
         """Correct ``end`` in place for every plane crossed between ``start`` and ``end`` (h seconds)."""
         m = self.model
-        threads = -(-m.particle_count // self.chunk)
-        m.launcher.prepare(plane_kernels.resolve_plane_impacts_chunked, threads, [
+        m.launcher.prepare(plane_kernels.resolve_plane_impacts_chunked, self.threads, [
             start.particle_x, start.particle_v, end.particle_x, end.particle_v, m.particle_material, m.planes,
-            m.scalar(h), self.touched, 0, self.chunk]).run_pieces(threads, self.BASE, self.pieces)
+            m.scalar(h), self.touched, 0, self.chunk]).run_pieces(self.threads, self.BASE, self.pieces)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from ..core.cpu_threads import chunked_launch
 from ..core.dynamics import Dynamics
 from ..kernels import fused as fused_kernels
 from ..kernels.guards import GuardRecord
@@ -27,11 +28,7 @@ class FusedParticleStep:
 
     kernels = ("fused",)
     capturable = True
-    cpu_chunk = 256   # particles a CPU thread steps (kernels.fused.symplectic_euler_particles); one on CUDA
-    #: particles a piece of a CPU launch run on its own core holds at least (core.cpu_threads): handing a piece to
-    #: another thread costs about 10 us, a twentieth of this many particles' step
-    min_piece = 16384
-    BASE = 16   # the kernel's input that is a piece's first thread
+    BASE = 16   # the kernel's input that is a piece's first thread (core.cpu_threads)
 
     def __init__(self, dynamics: Dynamics, impacts: bool, touched: wp.array):
         self.dynamics = dynamics
@@ -42,10 +39,8 @@ class FusedParticleStep:
         record = GuardRecord()
         record.first_step = record.first_key = wp.empty(1, dtype=wp.int32, device=model.device)
         self.set_guard(record, model.scalar(0.0))
-        self.chunk = self.cpu_chunk if model.device.is_cpu else 1
-        self.threads = -(-model.particle_count // self.chunk)
-        #: pieces of a CPU launch at most, each of min_piece particles or more (one on CUDA)
-        self.pieces = max(1, model.particle_count // self.min_piece) if model.device.is_cpu else 1
+        #: particles a thread steps, threads, pieces at most (core.cpu_threads.chunked_launch)
+        self.chunk, self.threads, self.pieces = chunked_launch(model.device, model.particle_count)
 
     def set_guard(self, record: GuardRecord, max_speed) -> None:
         """Fold the guard's check of the particles (its record, its bound [m/s] in the model's scalar) in."""
