@@ -15,10 +15,9 @@ import contextlib
 import importlib.util
 import os
 
-from tqdm.auto import tqdm
-
 from .core import cpu_threads
 from .util import checks
+from .util.progress import tqdm
 
 #: retries of a task whose function raised or whose worker died (Dask reschedules a lost task by itself too)
 RETRIES = 2

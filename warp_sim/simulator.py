@@ -10,7 +10,6 @@ import warnings
 
 import numpy as np
 import warp as wp
-from tqdm.auto import tqdm
 
 from . import kernels
 from .assembly import RESPONSES, assemble
@@ -26,6 +25,7 @@ from .stages import StageWriter, stage_layout
 from .stages.overlay import Overlay
 from .util import checks
 from .util.fingerprint import fingerprint
+from .util.progress import tqdm
 from .util.version import __version__
 
 
