@@ -22,8 +22,11 @@ Workloads (full sizes by default; --quick: smaller sizes and fewer steps, a coup
   bigpile    the same pile with 10^4 bodies, each run capped by --budget seconds (then "n/a (...)").
 
 Each implementation-workload runs in a subprocess of its own (a crash, a Taichi init or a compile there cannot
-touch another's numbers; a crash is reported as "failed: <its last line>"). In it, every implementation is first
-CHECKED, before it is timed, and the check is printed next to its speed:
+touch another's numbers; a crash is reported as "failed: <its last line>"). The implementations of a workload
+prepare each size one after another, then take their timed rounds in turn, A B C A B C ... (benchmarks/rounds.py),
+so that a drift of a shared machine's speed reaches them alike; the ratios are the median of the per-round ratios
+against warp_sim's round beside them. In its subprocess, every implementation is first CHECKED, before it is
+timed, and the check is printed next to its speed:
   cloth      the one-step acceleration of a free particle (gravity) and of the two ends of a stretched, moving,
              damped spring against the closed form (tolerances CLOSED_FORM_TOLERANCES), and the cloth's one step
              and CHECK_STEPS steps against benchmarks/cloth.py's numpy float64 step (cloth.TOLERANCES["float32"]);
@@ -46,19 +49,17 @@ import importlib.util
 import json
 import math
 import os
-import signal
 import statistics
-import subprocess
 import sys
-import tempfile
-import threading
 import time
+from functools import partial
 from pathlib import Path
 
 import cloth
 import collision
 import numpy as np
 import particles
+import rounds
 import warp as wp
 from common import device_name, floor_bandwidth, markdown, pick_device
 
@@ -84,20 +85,20 @@ CLOSED_FORM_TOLERANCES = {"free": 1.0e-3, "spring": 1.0e-4}
 #: length SPRING["rest"] m stretched to SPRING["length"] m, its far end moving away at SPRING["speed"] m/s
 SPRING = {"mass": 0.01, "stiffness": 1.0e4, "damping": 100.0, "rest": 0.1, "length": 0.11, "speed": 0.2}
 
-#: per workload and mode: sizes and steps (cloth, particles: timed rounds of `steps`, median of `repeats`; piles:
-#: `settle` seconds untimed, then one timed round of `steps`)
+#: per workload and mode: sizes, and `repeats` timed rounds of `steps` (taken in turn by the implementations; the
+#: median reported), after `settle` untimed seconds for the piles
 SETTINGS = {
     "full": {"cloth": {"sizes": [32, 64, 128], "steps": 200, "repeats": 5},
              "particles": {"sizes": [100_000, 1_000_000], "steps": 100, "repeats": 5},
-             "pile": {"sizes": [100], "settle": 2.0, "steps": 500},
-             "bigpile": {"sizes": [10_000], "settle": 2.0, "steps": 20}},
+             "pile": {"sizes": [100], "settle": 2.0, "steps": 100, "repeats": 5},
+             "bigpile": {"sizes": [10_000], "settle": 2.0, "steps": 4, "repeats": 5}},
     "quick": {"cloth": {"sizes": [32, 64], "steps": 50, "repeats": 3},
               "particles": {"sizes": [10_000, 100_000], "steps": 20, "repeats": 3},
-              "pile": {"sizes": [100], "settle": 0.4, "steps": 50},
-              "bigpile": {"sizes": [500], "settle": 0.5, "steps": 10}},
+              "pile": {"sizes": [100], "settle": 0.4, "steps": 10, "repeats": 5},
+              "bigpile": {"sizes": [500], "settle": 0.5, "steps": 2, "repeats": 5}},
 }
 BUDGET = {"full": 900.0, "quick": 60.0}     # [s] one pile run (settle + timed), else "n/a"
-TIMEOUT = {"full": 3600.0, "quick": 300.0}  # [s] one subprocess (an implementation-workload)
+TIMEOUT = {"full": 3600.0, "quick": 300.0}  # [s] one answer of a worker (benchmarks/rounds.py)
 
 NOT_MUJOCO_CLOTH = ("n/a (MuJoCo has no mass-spring cloth: its flex is a triangulated mesh with edge constraints "
                     "and plate/shell elasticity, not structural/shear/bend springs)")
@@ -378,7 +379,8 @@ def closed_form_check(key: str, device, modules: dict) -> dict:
             "ok": free <= CLOSED_FORM_TOLERANCES["free"] and spring <= CLOSED_FORM_TOLERANCES["spring"]}
 
 
-def run_cloth(key: str, n: int, cfg: dict, device, modules: dict) -> dict:
+def prepare_cloth(key: str, n: int, cfg: dict, device, modules: dict):
+    """Build, check and warm up the cloth of n x n: (one timed round [s], the result from the rounds' seconds)."""
     closed = closed_form_check(key, device, modules)
     scene = cloth.make_scene(n)
     x0, v0 = cloth.initial_state(scene)
@@ -389,11 +391,13 @@ def run_cloth(key: str, n: int, cfg: dict, device, modules: dict) -> dict:
     summary = (f"{'pass' if ok else 'FAIL'}: spring a rel. err {closed['spring_rel_da']:.0e}, free "
                f"{closed['free_da']:.0e} m/s^2; cloth 1-step da {agreement['max_da']:.2f} m/s^2 vs numpy f64")
     cloth.timed(implementation, WARMUP_STEPS)
-    seconds = [cloth.timed(implementation, cfg["steps"]) for _ in range(cfg["repeats"])]
-    return {"check": {"pass": ok, "summary": summary, "closed_form": closed, "against_numpy_float64": agreement,
-                      "tolerances": {"closed_form": CLOSED_FORM_TOLERANCES, "cloth": cloth.TOLERANCES["float32"]}},
-            "seconds": seconds, "steps_per_s": cfg["steps"] / statistics.median(seconds),
-            "particles": scene.particle_count, "springs": scene.spring_count, "dt": cloth.DT}
+
+    def finish(seconds: list[float]) -> dict:
+        return {"check": {"pass": ok, "summary": summary, "closed_form": closed, "against_numpy_float64": agreement,
+                          "tolerances": {"closed_form": CLOSED_FORM_TOLERANCES, "cloth": cloth.TOLERANCES["float32"]}},
+                "seconds": seconds, "steps_per_s": cfg["steps"] / statistics.median(seconds),
+                "particles": scene.particle_count, "springs": scene.spring_count, "dt": cloth.DT}
+    return partial(cloth.timed, implementation, cfg["steps"]), finish
 
 
 def particle_depth(x: np.ndarray, radius: np.ndarray) -> float:
@@ -401,7 +405,8 @@ def particle_depth(x: np.ndarray, radius: np.ndarray) -> float:
     return float(max(0.0, (radius - x[:, 1]).max()))
 
 
-def run_particles(key: str, n: int, cfg: dict, device, modules: dict) -> dict:
+def prepare_particles(key: str, n: int, cfg: dict, device, modules: dict):
+    """Build, check and warm up n particles: (one timed round [s], then the deepest particle; the result)."""
     scene = particles.make_scene(n)
     radius = scene.particle_array("radius")
     if key in ("warp_sim", "warp_sim_1thread"):
@@ -423,23 +428,30 @@ def run_particles(key: str, n: int, cfg: dict, device, modules: dict) -> dict:
     exact = np.asarray(scene.gravity) - drag * v0[free] / scene.particle_array("mass")[free, None]
     free_da = float(np.abs((v1[free] - v0[free]) / dt - exact).max())
     timed(implementation, WARMUP_STEPS - 1, dt)
-    seconds, depths = [], []
-    for _ in range(cfg["repeats"]):
-        seconds.append(timed(implementation, cfg["steps"], dt))
+    depths, finite = [], [True]
+
+    def round_() -> float:
+        seconds = timed(implementation, cfg["steps"], dt)
         x, v = implementation.arrays()
         depths.append(particle_depth(x, radius))
-    finite = bool(np.isfinite(x).all() and np.isfinite(v).all())
-    ok = finite and free_da <= FREE_TOLERANCE and max(depths) <= MAX_DEPTH
-    summary = (f"{'pass' if ok else 'FAIL'}: free-flight a err {free_da:.0e} m/s^2, deepest "
-               f"{1e3 * max(depths):.2f} mm" + ("" if finite else ", NON-FINITE"))
-    return {"check": {"pass": ok, "summary": summary, "free_flight_max_da": free_da, "free_particles":
-                      int(free.sum()), "deepest_m_per_round": depths, "finite": finite,
-                      "tolerances": {"free_flight_da": FREE_TOLERANCE, "depth_m": MAX_DEPTH}},
-            "seconds": seconds, "steps_per_s": cfg["steps"] / statistics.median(seconds), "dt": dt,
-            "simulated_s": dt * (WARMUP_STEPS + cfg["repeats"] * cfg["steps"])}
+        finite[0] = finite[0] and bool(np.isfinite(x).all() and np.isfinite(v).all())
+        return seconds
+
+    def finish(seconds: list[float]) -> dict:
+        ok = finite[0] and free_da <= FREE_TOLERANCE and max(depths) <= MAX_DEPTH
+        summary = (f"{'pass' if ok else 'FAIL'}: free-flight a err {free_da:.0e} m/s^2, deepest "
+                   f"{1e3 * max(depths):.2f} mm" + ("" if finite[0] else ", NON-FINITE"))
+        return {"check": {"pass": ok, "summary": summary, "free_flight_max_da": free_da, "free_particles":
+                          int(free.sum()), "deepest_m_per_round": depths, "finite": finite[0],
+                          "tolerances": {"free_flight_da": FREE_TOLERANCE, "depth_m": MAX_DEPTH}},
+                "seconds": seconds, "steps_per_s": cfg["steps"] / statistics.median(seconds), "dt": dt,
+                "simulated_s": dt * (WARMUP_STEPS + len(seconds) * cfg["steps"])}
+    return round_, finish
 
 
-def run_pile(key: str, n: int, cfg: dict, device, modules: dict, dt: float, budget: float) -> dict:
+def prepare_pile(key: str, n: int, cfg: dict, device, modules: dict, dt: float, budget: float):
+    """Build a pile of n bodies and settle it (untimed, looked at every SAMPLE_STEPS steps; OverBudget if it and the
+    timed rounds would take more than ``budget`` seconds): (one timed round [s], then a look; the result)."""
     parameters = collision.body_parameters(n)
     start = time.perf_counter()
     if key in ("warp_sim", "warp_sim_capture"):
@@ -472,31 +484,41 @@ def run_pile(key: str, n: int, cfg: dict, device, modules: dict, dt: float, budg
             clock = time.perf_counter()
             continue
         per_step = (time.perf_counter() - chunk_start) / chunk
-        projected = time.perf_counter() - clock + per_step * (settle_steps - done + cfg["steps"])
+        projected = time.perf_counter() - clock + per_step * (settle_steps - done + cfg["steps"] * cfg["repeats"])
         if projected > budget:
             raise OverBudget(f"n/a (over the {budget:.0f} s budget: {1e3 * per_step:,.0f} ms/step at step {done} of "
-                             f"{settle_steps + cfg['steps']}, {projected:,.0f} s projected)")
-    settled = state
-    seconds = timed(implementation, cfg["steps"], dt)
-    final = collision.pile_summary(*implementation.arrays(), parameters)
-    deepest = min(deepest, final["lowest_point"])
-    finite = settled["finite"] and final["finite"]
-    fastest = max(settled["max_speed"], final["max_speed"]) if finite else float("nan")
-    depth, end_depth = max(0.0, -deepest), max(0.0, -final["lowest_point"])  # [m] into the ground
-    ok = finite and depth <= MAX_DEPTH and fastest <= speed_bound
-    summary = (f"{'pass' if ok else 'FAIL'}: deepest {1e3 * depth:.2f} mm ({1e3 * end_depth:.2f} at "
-               f"the end), max speed {settled['max_speed']:.2f} m/s after {settle_steps * dt:.2g} s"
-               + ("" if finite else ", NON-FINITE")
-               + (f", faster than a fall allows ({speed_bound:.1f} m/s)" if finite and fastest > speed_bound else ""))
-    return {"check": {"pass": ok, "summary": summary, "deepest_m": depth, "deepest_at_end_m": end_depth,
-                      "after_settle": settled, "after_timed": final, "speed_bound": speed_bound,
-                      "tolerances": {"depth_m": MAX_DEPTH}},
-            "seconds": [seconds], "steps_per_s": cfg["steps"] / seconds, "dt": dt, "settle_steps": settle_steps,
-            "build_s": build_s, "boxes": int(np.count_nonzero(parameters["kind"] == "box"))}
+                             f"{settle_steps + cfg['steps'] * cfg['repeats']}, {projected:,.0f} s projected)")
+    settled, looks = state, [state]
+
+    def round_() -> float:
+        seconds = timed(implementation, cfg["steps"], dt)
+        looks.append(collision.pile_summary(*implementation.arrays(), parameters))
+        return seconds
+
+    def finish(seconds: list[float]) -> dict:
+        final = looks[-1]
+        lowest = min([deepest] + [look["lowest_point"] for look in looks[1:]])
+        finite = all(look["finite"] for look in looks)
+        fastest = max(look["max_speed"] for look in looks) if finite else float("nan")
+        depth, end_depth = max(0.0, -lowest), max(0.0, -final["lowest_point"])  # [m] into the ground
+        ok = finite and depth <= MAX_DEPTH and fastest <= speed_bound
+        summary = (f"{'pass' if ok else 'FAIL'}: deepest {1e3 * depth:.2f} mm ({1e3 * end_depth:.2f} at "
+                   f"the end), max speed {settled['max_speed']:.2f} m/s after {settle_steps * dt:.2g} s"
+                   + ("" if finite else ", NON-FINITE")
+                   + (f", faster than a fall allows ({speed_bound:.1f} m/s)" if finite and fastest > speed_bound
+                      else ""))
+        return {"check": {"pass": ok, "summary": summary, "deepest_m": depth, "deepest_at_end_m": end_depth,
+                          "after_settle": settled, "after_timed": final, "speed_bound": speed_bound,
+                          "tolerances": {"depth_m": MAX_DEPTH}},
+                "seconds": seconds, "steps_per_s": cfg["steps"] / statistics.median(seconds), "dt": dt,
+                "settle_steps": settle_steps, "build_s": build_s,
+                "boxes": int(np.count_nonzero(parameters["kind"] == "box"))}
+    return round_, finish
 
 
 def worker(args, device) -> None:
-    """One implementation on one workload, every size: a line "RESULT {json}" on stdout per size, as it is done."""
+    """One implementation on one workload, every size, answering the parent's PREPARE, ROUND and FINISH
+    (benchmarks/rounds.py)."""
     workload, key = args.worker
     mode = "quick" if args.quick else "full"
     cfg = SETTINGS[mode][workload]
@@ -506,76 +528,43 @@ def worker(args, device) -> None:
         modules[peer] = importlib.import_module(PEERS[peer][0])
         if peer == "mujoco_warp":
             modules["mujoco"] = importlib.import_module("mujoco")
-    for n in cfg["sizes"]:
-        print(f"PROGRESS {workload} {key} {n}", flush=True)
-        try:
-            if workload == "cloth":
-                result = run_cloth(key, n, cfg, device, modules)
-            elif workload == "particles":
-                result = run_particles(key, n, cfg, device, modules)
-            else:
-                result = run_pile(key, n, cfg, device, modules, args.pile_dt, args.budget or BUDGET[mode])
-            result["status"] = "ok"
-        except OverBudget as error:
-            result = {"status": str(error)}
-        except ws.SimulationDiverged as error:
-            result = {"status": f"failed: SimulationDiverged at step {error.step}: {error.reason}"}
-        except Exception as error:  # reported in its row; the next size goes on
-            result = {"status": f"failed: {type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''}"}
-        print("RESULT " + json.dumps({"size": n, **result}), flush=True)
+
+    def prepare(n: int):
+        if workload == "cloth":
+            round_, finish = prepare_cloth(key, n, cfg, device, modules)
+        elif workload == "particles":
+            round_, finish = prepare_particles(key, n, cfg, device, modules)
+        else:
+            round_, finish = prepare_pile(key, n, cfg, device, modules, args.pile_dt, args.budget or BUDGET[mode])
+        return round_, lambda seconds: {**finish(seconds), "status": "ok"}
+
+    rounds.serve(cfg["sizes"], prepare, failure)
+
+
+def failure(error: Exception) -> dict:
+    """The status of a size that raised ``error``: "n/a (...)" over budget, else "failed: ..."."""
+    if isinstance(error, OverBudget):
+        return {"status": str(error)}
+    if isinstance(error, ws.SimulationDiverged):
+        return {"status": f"failed: SimulationDiverged at step {error.step}: {error.reason}"}
+    return {"status": f"failed: {type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''}"}
 
 
 # ---------------------------------------------------------------------------------------------------- parent
 
-def last_line(text: str) -> str:
-    lines = [line.strip() for line in text.splitlines() if line.strip()]
-    return lines[-1][:160] if lines else "(no output)"
-
-
-def spawn(workload: str, key: str, args, device, timeout: float) -> dict:
-    """Run one implementation-workload in a subprocess: {size: result}; a crash or a timeout fills the sizes it did
-    not report with "failed: ..."."""
-    command = [sys.executable, str(Path(__file__).resolve()), "--worker", workload, key, "--device", device.alias,
-               "--pile-dt", repr(args.pile_dt)] + (["--quick"] if args.quick else []) \
+def worker_command(workload: str, key: str, args, device) -> list[str]:
+    return [sys.executable, str(Path(__file__).resolve()), "--worker", workload, key, "--device", device.alias,
+            "--pile-dt", repr(args.pile_dt)] + (["--quick"] if args.quick else []) \
         + (["--budget", repr(args.budget)] if args.budget else [])
-    results = {}
-    with tempfile.TemporaryFile(mode="w+") as stderr:
-        # a session of its own, so that a timeout ends the worker and anything it started, and nothing else
-        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=stderr, text=True, start_new_session=True)
-        killed = threading.Event()
 
-        def kill():
-            killed.set()
-            try:
-                os.killpg(process.pid, signal.SIGKILL)
-            except ProcessLookupError:  # it had just ended
-                pass
 
-        timer = threading.Timer(timeout, kill)
-        timer.start()
-        try:
-            for line in process.stdout:
-                if line.startswith("RESULT "):
-                    result = json.loads(line[len("RESULT "):])
-                    results[result.pop("size")] = result
-                    print(f"    {workload} {result_size(workload, list(results)[-1])} {key}: "
-                          f"{result['check']['summary'] if 'check' in result else result['status']}"
-                          + (f"; {result['steps_per_s']:,.1f} steps/s" if "steps_per_s" in result else ""), flush=True)
-            process.wait()
-        finally:
-            timer.cancel()
-        stderr.seek(0)
-        error_text = stderr.read()
-    if process.returncode != 0:
-        if killed.is_set():
-            reason = f"failed: timed out after {timeout:.0f} s"
-        elif process.returncode < 0:
-            reason = f"failed: {signal.Signals(-process.returncode).name}; {last_line(error_text)}"
-        else:
-            reason = f"failed: {last_line(error_text)}"
-        for n in SETTINGS["quick" if args.quick else "full"][workload]["sizes"]:
-            results.setdefault(n, {"status": reason})
-    return results
+def report(workload: str):
+    """The line printed as each result of ``workload`` comes."""
+    def line(key: str, n: int, result: dict) -> None:
+        print(f"    {workload} {result_size(workload, n)} {key}: "
+              f"{result['check']['summary'] if 'check' in result else result['status']}"
+              + (f"; {result['steps_per_s']:,.1f} steps/s" if "steps_per_s" in result else ""), flush=True)
+    return line
 
 
 def result_size(workload: str, n: int) -> str:
@@ -598,7 +587,8 @@ def table(rows: list[dict]) -> str:
         if "check" in row and row["status"] != "ok":
             check += f"; {row['status']}"
         rate = row.get("steps_per_s")
-        ratio = ratio_cell(row.get("reference_steps_per_s"), rate)
+        ratio = f"{row['paired_ratio']:.2f}x" if row.get("paired_ratio") else ratio_cell(
+            row.get("reference_steps_per_s"), rate)
         if row["key"] == row.get("reference_key") and rate:
             ratio = "1.00x (ref)"
         elif row["key"] == "floor" and rate and row.get("share_of"):
@@ -622,7 +612,8 @@ def main(argv=None) -> None:
     parser.add_argument("--budget", type=float, default=None,
                         help="seconds one pile run may take, else n/a (default 900, --quick 60)")
     parser.add_argument("--timeout", type=float, default=None,
-                        help="seconds one implementation-workload subprocess may take (default 3600, --quick 300)")
+                        help="seconds a worker may take for one answer: a size's build, check and warm-up, or one "
+                             "timed round (default 3600, --quick 300)")
     parser.add_argument("--copy-mb", type=int, default=256, help="size of the bandwidth-floor copy [MiB]")
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results/compare.json"))
     parser.add_argument("--worker", nargs=2, metavar=("WORKLOAD", "IMPL"), help=argparse.SUPPRESS)
@@ -648,7 +639,7 @@ def main(argv=None) -> None:
     rows = []
     for workload in args.workloads:
         cfg = SETTINGS[mode][workload]
-        by_key = {}
+        by_key, commands = {}, {}
         for impl in implementations(workload, device):
             if args.only and impl["key"] not in args.only and impl["key"] != "warp_sim":
                 continue
@@ -657,8 +648,10 @@ def main(argv=None) -> None:
             elif impl["na"]:
                 by_key[impl["key"]] = {n: {"status": impl["na"]} for n in cfg["sizes"]}
             else:
-                print(f"  {workload}: {impl['label']} ...", flush=True)
-                by_key[impl["key"]] = spawn(workload, impl["key"], args, device, timeout)
+                by_key[impl["key"]] = None   # its place in the table
+                commands[impl["key"]] = worker_command(workload, impl["key"], args, device)
+        print(f"  {workload}: {', '.join(commands)}, their timed rounds in turn ...", flush=True)
+        by_key.update(rounds.interleave(commands, cfg["sizes"], cfg["repeats"], timeout, report(workload)))
         labels = {impl["key"]: impl["label"] for impl in implementations(workload, device)}
         for n in cfg["sizes"]:
             reference = by_key["warp_sim"][n].get("steps_per_s")
@@ -668,7 +661,9 @@ def main(argv=None) -> None:
                     "reference_steps_per_s": reference,
                     "workload_label": {"particles": "particles + ground"}.get(workload, workload)}
             for key, results in by_key.items():
-                rows.append({**base, "key": key, "label": labels[key], **results[n]})
+                paired = rounds.paired_ratio(results[n].get("seconds"), by_key["warp_sim"][n].get("seconds"))
+                rows.append({**base, "key": key, "label": labels[key], **results[n],
+                             **({"paired_ratio": paired} if paired is not None and key != "warp_sim" else {})})
                 if workload == "particles" and key in ("warp_sim", "warp_sim_1thread"):
                     # each warp_sim row is followed by the copy floor on as many threads, its share of it
                     one = key == "warp_sim_1thread" or device.is_cuda or threads == 1
