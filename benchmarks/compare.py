@@ -88,8 +88,8 @@ SPRING = {"mass": 0.01, "stiffness": 1.0e4, "damping": 100.0, "rest": 0.1, "leng
 #: per workload and mode: sizes, and `repeats` timed rounds of `steps` (taken in turn by the implementations; the
 #: median reported), after `settle` untimed seconds for the piles
 SETTINGS = {
-    "full": {"cloth": {"sizes": [32, 64, 128], "steps": 200, "repeats": 5},
-             "particles": {"sizes": [100_000, 1_000_000], "steps": 100, "repeats": 5},
+    "full": {"cloth": {"sizes": [32, 64, 128], "steps": 200, "repeats": 9},
+             "particles": {"sizes": [100_000, 1_000_000], "steps": 100, "repeats": 7},
              "pile": {"sizes": [100], "settle": 2.0, "steps": 100, "repeats": 5},
              "bigpile": {"sizes": [10_000], "settle": 2.0, "steps": 4, "repeats": 5}},
     "quick": {"cloth": {"sizes": [32, 64], "steps": 50, "repeats": 3},
