@@ -85,14 +85,15 @@ CLOSED_FORM_TOLERANCES = {"free": 1.0e-3, "spring": 1.0e-4}
 #: length SPRING["rest"] m stretched to SPRING["length"] m, its far end moving away at SPRING["speed"] m/s
 SPRING = {"mass": 0.01, "stiffness": 1.0e4, "damping": 100.0, "rest": 0.1, "length": 0.11, "speed": 0.2}
 
-#: per workload and mode: sizes, and `repeats` timed rounds of `steps` (taken in turn by the implementations; the
-#: median reported), after `settle` untimed seconds for the piles
+#: per workload and mode: sizes, and `repeats` timed rounds of `steps` (cloth: by size, so that a round takes a
+#: tenth of a second or more; taken in turn by the implementations; the median reported), after `settle` untimed
+#: seconds for the piles
 SETTINGS = {
-    "full": {"cloth": {"sizes": [32, 64, 128], "steps": 200, "repeats": 9},
+    "full": {"cloth": {"sizes": [32, 64, 128], "steps": {32: 2000, 64: 600, 128: 200}, "repeats": 9},
              "particles": {"sizes": [100_000, 1_000_000], "steps": 100, "repeats": 7},
              "pile": {"sizes": [100], "settle": 2.0, "steps": 100, "repeats": 5},
              "bigpile": {"sizes": [10_000], "settle": 2.0, "steps": 4, "repeats": 5}},
-    "quick": {"cloth": {"sizes": [32, 64], "steps": 50, "repeats": 3},
+    "quick": {"cloth": {"sizes": [32, 64], "steps": {32: 200, 64: 50}, "repeats": 3},
               "particles": {"sizes": [10_000, 100_000], "steps": 20, "repeats": 3},
               "pile": {"sizes": [100], "settle": 0.4, "steps": 10, "repeats": 5},
               "bigpile": {"sizes": [500], "settle": 0.5, "steps": 2, "repeats": 5}},
@@ -381,6 +382,7 @@ def closed_form_check(key: str, device, modules: dict) -> dict:
 
 def prepare_cloth(key: str, n: int, cfg: dict, device, modules: dict):
     """Build, check and warm up the cloth of n x n: (one timed round [s], the result from the rounds' seconds)."""
+    steps = cfg["steps"][n]
     closed = closed_form_check(key, device, modules)
     scene = cloth.make_scene(n)
     x0, v0 = cloth.initial_state(scene)
@@ -395,9 +397,9 @@ def prepare_cloth(key: str, n: int, cfg: dict, device, modules: dict):
     def finish(seconds: list[float]) -> dict:
         return {"check": {"pass": ok, "summary": summary, "closed_form": closed, "against_numpy_float64": agreement,
                           "tolerances": {"closed_form": CLOSED_FORM_TOLERANCES, "cloth": cloth.TOLERANCES["float32"]}},
-                "seconds": seconds, "steps_per_s": cfg["steps"] / statistics.median(seconds),
+                "seconds": seconds, "steps_per_s": steps / statistics.median(seconds), "steps_per_round": steps,
                 "particles": scene.particle_count, "springs": scene.spring_count, "dt": cloth.DT}
-    return partial(cloth.timed, implementation, cfg["steps"]), finish
+    return partial(cloth.timed, implementation, steps), finish
 
 
 def particle_depth(x: np.ndarray, radius: np.ndarray) -> float:
