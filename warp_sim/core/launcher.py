@@ -33,6 +33,13 @@ def _referenced(argument) -> bool:
     return kind
 
 
+def _identities(inputs: list) -> list:
+    """Per input, its id() if it is passed by reference (the part of a recorded launch's key), else None. A launch
+    key is built on every launch, so the type's kind is looked up inline (half the time of calling _referenced)."""
+    kinds = _KINDS
+    return [id(a) if (kinds.get(type(a)) or (type(a) not in kinds and _referenced(a))) else None for a in inputs]
+
+
 def _direct_entry(command):
     """(forward entry point, argument struct, field names) to call a recorded CPU launch directly, or None."""
     if not command.device.is_cpu or getattr(command, "block_dim", 1) > 1 or command.adjoint:
@@ -223,7 +230,7 @@ class Launcher:
     def prepare(self, kernel, dim: int, inputs: list) -> Prepared:
         """The recorded launch of ``kernel`` on these arrays and structs (recorded now if new), its scalars set
         to those in ``inputs``; ``run(dim)`` launches it."""
-        key = (kernel,) + tuple(id(a) if _referenced(a) else None for a in inputs)
+        key = (kernel, *_identities(inputs))
         prepared = self._recorded.get(key)
         if prepared is None:
             if len(self._recorded) >= self.capacity:
@@ -251,7 +258,7 @@ class Launcher:
         if pieces <= 1 or self.capturing or self.log is not None or self.profile is not None:
             self.launch(kernel, dim, inputs)
             return
-        key = (kernel, dim, pieces) + tuple(id(a) if _referenced(a) else None for a in inputs)
+        key = (kernel, dim, pieces, *_identities(inputs))
         split = self._split.get(key)
         if split is None:
             if len(self._split) >= self.capacity:
