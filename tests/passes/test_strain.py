@@ -147,3 +147,33 @@ def test_bad_limiter_options_are_rejected(options, argument):
     add_grid(scene, n=3, max_stretch=0.1)
     with pytest.raises(ValueError, match=argument):
         StrainLimiter(ws.Model(scene, "cpu"), scene, **options)
+
+
+@pytest.mark.parametrize("h", [1 / 60, 1 / 24])
+@pytest.mark.parametrize("integrator", ["symplectic_euler", "implicit_euler"])
+def test_a_cpu_sweep_in_one_launch_is_the_sweep_colour_by_colour(integrator, h):
+    """On the CPU a sweep is one launch over every spring (stored colour by colour; a CPU launch runs its threads in
+    order): the states are those of one launch per colour bit for bit, at frame-rate steps, with fewer launches, and
+    every limited spring within 1.1 (1 + tolerance) L0."""
+    sims = []
+    for one_launch in (True, False):
+        scene = ws.Scene(precision="float64")
+        _, springs = add_grid(scene, stiffness=50.0, max_stretch=0.1)
+        sim = ws.Simulator(scene, integrator=integrator, device="cpu")
+        limiter = sim.strain_limiter
+        assert limiter.colour_count > 1 and len(limiter.sweep_launches) == 1
+        if not one_launch:
+            limiter.sweep_launches = limiter.colours
+        sims.append((sim, springs))
+    launches = []
+    for sim, springs in sims:
+        start = sim.model.launcher.launches
+        for _ in range(round(2.0 / h)):
+            sim.step(h)
+            assert sim.strain_limiter.converged
+            assert spring_strains(sim, springs).max() <= 1.1 * (1.0 + 1e-6) - 1.0 + 1e-12
+        launches.append(sim.model.launcher.launches - start)
+    (one, _), (per_colour, _) = sims
+    assert np.array_equal(host(one.state.particle_x), host(per_colour.state.particle_x))
+    assert np.array_equal(host(one.state.particle_v), host(per_colour.state.particle_v))
+    assert launches[0] < launches[1]

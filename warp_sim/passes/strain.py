@@ -22,7 +22,9 @@ Method: successive over-relaxation (SOR) Gauss-Seidel over a colouring of the
 springs, computed once on the host: greedy in spring order, no two springs of one
 colour share a particle (a grid cloth with structural and shear springs takes 8
 colours). A sweep is one launch per colour, the springs of a colour projected in
-parallel with no atomics on the particles. The first sweep of a step is Provot's
+parallel with no atomics on the particles; on the CPU, whose launches run their
+threads in order, one launch over every spring (they are stored colour by colour), the
+same sweep bit for bit. The first sweep of a step is Provot's
 projection exactly (each over-long spring shortened to its limit); later sweeps
 over-relax: a spring still over its limit is shortened by ``relaxation`` times its
 excess, but never below its rest length. Plain Gauss-Seidel (relaxation 1) spreads
@@ -137,6 +139,11 @@ class StrainLimiter(Pass):
         self.inv_rest = wp.array((1.0 / rest[order]).astype(dtype), dtype=model.scalar, device=device)
         self._violations = wp.zeros(1, dtype=wp.int32, device=device)
         self._max_strain = wp.zeros(1, dtype=model.scalar, device=device)
+        #: the (offset, count) launches of a sweep: one per colour, or on the CPU, which runs a launch's threads in
+        #: order, one over every spring (stored colour by colour, so the same sweep bit for bit)
+        self.sweep_launches = [(0, self.constraint_count)] if device.is_cpu and self.colours else self.colours
+        #: the count of springs over their limit, read after each sweep (on the CPU a view of its memory)
+        self._violation_count = self._violations.numpy() if device.is_cpu else None
         self.last_iterations = 0
         self.converged = True
         self._measured = False
@@ -165,15 +172,20 @@ class StrainLimiter(Pass):
         for sweep in range(self.max_iterations):
             relax = m.scalar(1.0 if sweep == 0 else self.relaxation)
             self._reset()
-            for offset, count in self.colours:
+            for offset, count in self.sweep_launches:
                 m.launch(cloth_kernels.limit_strain, count,
                          [x, v, m.particle_inv_mass, self.pairs, self.limit, self.inv_rest, offset, tolerance, relax,
                           inv_h, self._violations, self._max_strain])
-            if self._violations.numpy()[0] == 0:     # nothing was over its limit, so nothing moved
+            if self._violations_now() == 0:     # nothing was over its limit, so nothing moved
                 self.last_iterations, self.converged = sweep, True
                 return
         self._reset()
         m.launch(cloth_kernels.measure_strain, self.constraint_count,
                  [x, self.pairs, self.limit, self.inv_rest, tolerance, self._violations, self._max_strain])
         self.last_iterations = self.max_iterations
-        self.converged = bool(self._violations.numpy()[0] == 0)
+        self.converged = self._violations_now() == 0
+
+    def _violations_now(self) -> int:
+        """Springs found over their limit since the last reset."""
+        view = self._violation_count if self._violation_count is not None else self._violations.numpy()
+        return int(view[0])
