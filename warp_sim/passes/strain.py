@@ -83,7 +83,8 @@ class StrainLimiter(Pass):
     last_iterations: the sweeps that found and shortened an over-long spring (0: nothing was over its limit)
     converged: whether every spring ended within its limit (False only when max_iterations ran out)
     max_strain: the largest L / L0 - 1 of the limited springs in the end state [1]
-    constraint_count: springs limited; colour_count: their colours
+    constraint_count: springs limited; colour_count: their colours; sweep_launches: a sweep's (first spring,
+    springs) launches: one per colour, or one on the CPU
     """
 
     kernels = ("cloth",)
