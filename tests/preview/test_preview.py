@@ -1,6 +1,5 @@
 """warp_sim.preview: PNG files (decoded here with zlib and struct), the rasteriser's pixels, the USD and
 Simulator sources, the HTML flipbook, and bad input."""
-import json
 import math
 import re
 import struct
@@ -251,12 +250,12 @@ def test_flipbook_html_holds_every_frame():
     book = preview.flipbook(frames, fps=10)
     html = book._repr_html_()
     assert len(book) == 5 and html == book.html
-    listed = json.loads(re.search(r"var frames = (\[.*?\]);", html).group(1))
-    assert len(listed) == 5
-    for k, text in enumerate(listed):
-        np.testing.assert_array_equal(decode_png(__import__("base64").b64decode(text)), frames[k])
-    assert html.count("data:image/png;base64,") == 2      # the first frame as the still, and the player's prefix
-    assert "<script" in html and 'type="range"' in html and "play" in html
+    for k, png in enumerate(book.pngs):
+        np.testing.assert_array_equal(decode_png(png), frames[k])
+    apng = __import__("base64").b64decode(re.search(r'<img src="data:image/png;base64,([^"]+)"', html).group(1))
+    assert apng == book.apng            # every frame in one animated PNG, decoded in tests/preview/test_apng.py
+    assert html.count("data:image/png;base64,") == 2      # the animated PNG, and the player's prefix for its frames
+    assert "<script" in html and '"range"' in html and "play" in html and "splitAPNG" in html
 
 
 def test_animate_a_simulator_and_save(tmp_path):

@@ -10,8 +10,11 @@ Spheres, Cubes, Capsules and Cylinders under Xforms will do). Either becomes a :
 * springs and curves as one-pixel lines;
 * planes as checkered floors fading into the sky, with straight-down blob shadows on floors.
 
-:func:`flipbook` wraps the frames in a self-contained HTML page (base64 PNGs, a slider and a play
-button) whose :class:`Flipbook` shows itself inline in Jupyter; :func:`animate` does all three::
+:func:`flipbook` wraps the frames in a self-contained HTML snippet whose :class:`Flipbook` shows itself inline in
+Jupyter: an animated PNG (:func:`apng_bytes`, lossless, looping) in an ``<img>``, which plays with no script at all
+(an untrusted notebook, GitHub's and other static notebook views), and a player (play and pause, a slider, each
+frame's time) that script adds where it runs (a trusted notebook, nbviewer, a saved page). ``book.save("clip.png")``
+writes the animated PNG alone, ``book.save("clip.html")`` a page. :func:`animate` does all three::
 
     import warp_sim as ws
     from warp_sim import preview
@@ -27,17 +30,17 @@ of :meth:`Camera.framing` options (``azimuth``, ``elevation``, ``fov``, ``zoom``
 The sky and the floors do not change with the frame and are drawn once per render.
 
 Units: positions and sizes in metres, angles in degrees, times in seconds, image sizes in pixels.
-PNG files are written with zlib and struct only. Speed: 64 frames of 320 x 240 of a few dozen
+PNG and APNG files are written with zlib and struct only. Speed: 64 frames of 320 x 240 of a few dozen
 bodies and particles and a 20 x 20 cloth take about a second to draw and encode on two CPU cores.
 """
 from __future__ import annotations
 
 from .frames import Recording, Snapshot, read_usd, record, snapshot
-from .output import Flipbook, PNGImage, flipbook, png_bytes
+from .output import Flipbook, PNGImage, apng_bytes, flipbook, png_bytes
 from .raster import Camera, _recording, render
 
 __all__ = ["Camera", "Snapshot", "Recording", "snapshot", "record", "read_usd", "render", "png_bytes", "PNGImage",
-           "Flipbook", "flipbook", "animate"]
+           "apng_bytes", "Flipbook", "flipbook", "animate"]
 
 
 
