@@ -2,6 +2,7 @@
 without a TqdmWarning) in a kernel without it, tqdm's own text bar elsewhere; ipywidgets never imported by
 ``import warp_sim``. A kernel is simulated by the modules tqdm.autonotebook looks for (ipykernel.zmqshell, and
 IPython.get_ipython() returning a ZMQInteractiveShell); ipywidgets' absence by patching find_spec."""
+import importlib
 import importlib.util
 import io
 import subprocess
@@ -23,9 +24,12 @@ class ZMQInteractiveShell:   # the class name ipykernel's shell has
 def kernel(monkeypatch):
     """As inside a Jupyter kernel: ipykernel.zmqshell imported, get_ipython() an ipykernel shell."""
     monkeypatch.setitem(sys.modules, "ipykernel.zmqshell", types.ModuleType("ipykernel.zmqshell"))
-    fake = types.ModuleType("IPython")
-    fake.get_ipython = ZMQInteractiveShell
-    monkeypatch.setitem(sys.modules, "IPython", fake)
+    if importlib.util.find_spec("IPython") is not None:        # installed: its get_ipython() says a kernel
+        monkeypatch.setattr(importlib.import_module("IPython"), "get_ipython", ZMQInteractiveShell)
+    else:
+        fake = types.ModuleType("IPython")
+        fake.get_ipython = ZMQInteractiveShell
+        monkeypatch.setitem(sys.modules, "IPython", fake)
     for name in ("QT_API", "SPYDER_ARGS"):
         monkeypatch.delenv(name, raising=False)
     assert progress.in_notebook()
