@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import os
 import signal
 import threading
 import warnings
@@ -11,9 +10,8 @@ import warnings
 import numpy as np
 import warp as wp
 
-from . import kernels
 from .assembly import RESPONSES, assemble
-from .core import persistence
+from .core import compiling, persistence
 from .core.capture import StepGraphs
 from .core.cpu_threads import CpuPool
 from .core.cpu_threads import cpu_threads as cpu_threads_for
@@ -21,6 +19,7 @@ from .core.guards import Guard, SimulationDiverged
 from .core.persistence import Persistent
 from .kernels import rigid as rigid_kernels
 from .scene import Scene
+from .solvers.stability import MAX_AUTO_SUBSTEPS, step_limit
 from .stages import StageWriter, stage_layout
 from .stages.overlay import Overlay
 from .util import checks
@@ -148,6 +147,15 @@ class Simulator(Persistent):
             self.fused.set_guard(*self.guard.record_of("particles"))
         self._first = self.state
         self._graphs = self._step_graphs() if capture else None
+        #: the longest step the solver takes stably on this scene (solvers.stability), which substeps="auto" keeps to
+        self.step_limit = step_limit(scene, self.integrator, stiffness if contact == "penalty" else None, collisions)
+        self._pieces: dict = {}
+        self._warned_substeps = False
+        if self.step_limit.grows_at_any_step:
+            warnings.warn(f"integrator={self.integrator.name!r} grows an undamped oscillator at any step, and this "
+                          f"scene has one ({self.step_limit.cause}): substeps='auto' keeps the growth to 1 % a second "
+                          f"with steps of {self.step_limit.step:.3g} s; symplectic_euler, verlet, rk4 or "
+                          "implicit_euler hold it at far longer steps", UserWarning, stacklevel=2)
         self._load_kernels()
         self.time = 0.0
         self.step_count = 0
@@ -183,12 +191,11 @@ class Simulator(Persistent):
         return self._graphs is not None
 
     def _load_kernels(self) -> None:
-        """Compile (or load from Warp's cache) every kernel module the simulation launches, in parallel on all
-        cores: a cold start compiles them side by side instead of one by one at their first launches. The
-        longest first (kernels.COMPILE_SECONDS), so no core waits long at the end."""
-        names = sorted(self.kernel_modules(), key=lambda name: -kernels.COMPILE_SECONDS.get(name, 0.0))
-        modules = [wp.get_module(f"{kernels.__name__}.{name}") for name in names]
-        wp.force_load(self.model.device, modules=modules, max_workers=os.cpu_count() or 1)
+        """Compile (or load from Warp's cache) every kernel module the simulation launches, in parallel on the
+        available cores (core.compiling.load): a cold start compiles them side by side instead of one by one at
+        their first launches, the longest first (kernels.COMPILE_SECONDS), so no core waits long at the end; and
+        says so first, with how long it takes, on stderr."""
+        compiling.load(self.kernel_modules(), self.model.device)
 
     @property
     def device(self):
@@ -241,11 +248,16 @@ class Simulator(Persistent):
             wp.launch(rigid_kernels.rotation_matrices, m.body_count, [self.state.body_q, R], device=m.device)
         return R
 
-    def step(self, dt: float, steps: int = 1) -> None:
-        """Advance by ``steps`` steps of dt seconds each, then check the guards once."""
+    def step(self, dt: float, steps: int = 1, substeps="auto") -> None:
+        """Advance by ``steps`` steps of dt seconds each, then check the guards once.
+
+        substeps: "auto" splits each step into ``sim.substeps(dt)`` equal pieces, as many as the scene's stability
+        (``sim.step_limit``) and the contact step need; a count n takes n equal pieces (each split further only
+        by contact_step), and warns once if they are longer than the stable step."""
         h = checks.scalar("dt", dt, low=0.0, low_open=True)
+        substeps = _substeps_argument(substeps)
         for _ in range(checks.count("steps", steps)):
-            self._advance(h)
+            self._advance(h, substeps)
         self.check()
         self._warn_solver()
 
@@ -259,15 +271,51 @@ class Simulator(Persistent):
         return self.emitters.stats() if self.emitters is not None else []
 
     def substeps(self, h: float) -> int:
-        """How many equal sub-steps a step of h seconds takes: enough that none is longer than any pass's
-        max_step (a pile or stack at frame rate: the body contacts' 1/120 s by default), else 1."""
+        """How many equal pieces a step of h seconds takes with substeps="auto": enough that none is longer than
+        the solver's stable step on this scene (``step_limit``: its stiffest springs, penalty contacts) nor than
+        any pass's max_step (a pile or stack at frame rate: the body contacts' 1/120 s by default); at least 1, at
+        most MAX_AUTO_SUBSTEPS."""
+        h = checks.scalar("h", h, low=0.0, low_open=True)
+        return self._piece_count(h, "auto")
+
+    def _pass_pieces(self, h: float) -> int:
+        """The fewest equal pieces of h seconds no longer than any pass's max_step."""
         limits = [p.max_step for p in self.passes if p.max_step is not None]
         return max([1] + [math.ceil(h / limit * (1.0 - 1e-12)) for limit in limits])
 
-    def _advance(self, h: float) -> None:
-        """One step of h seconds (in ``substeps(h)`` equal pieces): per piece the solver from state into the spare
-        state, the passes on it and the swap (replayed from a graph where captured); then the guard."""
-        pieces = self.substeps(h)
+    def _piece_count(self, h: float, substeps) -> int:
+        """The pieces of a step of h seconds under ``substeps`` ("auto" or a count), remembered per (h, substeps);
+        the first explicit count whose pieces are longer than the stable step warns, once per Simulator."""
+        key = (h, substeps)
+        count = self._pieces.get(key)
+        if count is None:
+            limit = self.step_limit
+            if substeps == "auto":
+                count = max(limit.pieces(h), self._pass_pieces(h))
+                if count > MAX_AUTO_SUBSTEPS:
+                    warnings.warn(f"substeps='auto': a step of {h:.4g} s needs {count} substeps to stay stable with "
+                                  f"{self.integrator.name} ({limit.cause}); it takes {MAX_AUTO_SUBSTEPS}, and may "
+                                  "diverge: use implicit_euler, or a shorter step", RuntimeWarning, stacklevel=4)
+                    count = MAX_AUTO_SUBSTEPS
+            else:
+                count = substeps * self._pass_pieces(h / substeps)
+                if h / count > limit.longest and not self._warned_substeps:
+                    self._warned_substeps = True
+                    stable = max(limit.pieces(h), self._pass_pieces(h))
+                    warnings.warn(f"substeps={substeps} gives steps of {h / count:.4g} s, longer than "
+                                  f"{self.integrator.name}'s stable step on this scene, {limit.longest:.4g} s "
+                                  f"({limit.cause}); {stable} substeps of a {h:.4g} s step would be stable "
+                                  + ("(substeps='auto' chooses them)" if stable <= MAX_AUTO_SUBSTEPS else
+                                     f"(more than the {MAX_AUTO_SUBSTEPS} substeps='auto' takes: a solver stable "
+                                     "at longer steps suits this scene)"), RuntimeWarning, stacklevel=4)
+            self._pieces[key] = count
+        return count
+
+    def _advance(self, h: float, substeps="auto") -> None:
+        """One step of h seconds (in ``_piece_count(h, substeps)`` equal pieces): per piece the solver from state
+        into the spare state, the passes on it and the swap (replayed from a graph where captured); then the
+        guard."""
+        pieces = self._piece_count(h, substeps)
         piece = h / pieces
         start_time = self.time
         for k in range(pieces):
@@ -338,8 +386,12 @@ class Simulator(Persistent):
                 ("particle_opacity", pools.opacity))})
         return arrays
 
-    def frames(self, seconds: float, fps: float = 60.0, substeps: int = 8, arrays: bool = True):
-        """Simulate round(seconds * fps) frames of ``substeps`` steps each, yielding (frame, time, arrays).
+    def frames(self, seconds: float, fps: float = 60.0, substeps="auto", arrays: bool = True):
+        """Simulate round(seconds * fps) frames, yielding (frame, time, arrays).
+
+        substeps: "auto" (default) steps each frame as ``step(1 / fps)`` does, in ``sim.substeps(1 / fps)`` pieces;
+        a count n takes n steps of 1 / (fps n) a frame (each split further only by contact_step), and warns once
+        if they are longer than the stable step.
 
         Frame k holds the state at run start + k / fps (frame 0: the state before the first step); time is
         the simulator's time then [s]; arrays are frame_arrays() (None with arrays=False: nothing is copied
@@ -350,17 +402,17 @@ class Simulator(Persistent):
             raise checks.fail("arrays", arrays, "expected True or False")
         return self._frame_loop(frames, fps, substeps, arrays)
 
-    def _frame_loop(self, frames: int, fps: float, substeps: int, arrays: bool, first: int = 0,
+    def _frame_loop(self, frames: int, fps: float, substeps, arrays: bool, first: int = 0,
                     start_time: float | None = None):
         """Frames ``first`` to ``frames - 1`` of a run that started at ``start_time`` (default: now, from frame 0;
         a resumed run's state is that of frame ``first - 1``)."""
-        h = 1.0 / (fps * substeps)
+        steps, h, split = (1, 1.0 / fps, "auto") if substeps == "auto" else (substeps, 1.0 / (fps * substeps), 1)
         start_time = self.time if start_time is None else start_time
         accepted, warned = self.integrator.stats().get("accepted"), False
         for frame in range(first, frames):
             if frame > 0:
-                for _ in range(substeps):
-                    self._advance(h)
+                for _ in range(steps):
+                    self._advance(h, split)
                 self.time = start_time + frame / fps
                 self.check()
                 if accepted is not None and not warned:   # an adaptive solver: how hard did this frame make it work?
@@ -382,10 +434,11 @@ class Simulator(Persistent):
         if message is not None:
             warnings.warn(message, RuntimeWarning, stacklevel=3)
 
-    def run(self, seconds: float, fps: float = 60.0, substeps: int = 8, usd=None, progress: bool = True,
+    def run(self, seconds: float, fps: float = 60.0, substeps="auto", usd=None, progress: bool = True,
             chunk_frames: int | None = None, resume: bool = False, keep_checkpoint: bool = False, over=None,
             flatten: bool = False):
-        """Simulate the frames of ``frames(seconds, fps, substeps)``, writing each to USD.
+        """Simulate the frames of ``frames(seconds, fps, substeps)``, writing each to USD (substeps: "auto", the
+        default, or a count of steps per frame, as in frames()).
 
         usd: output path (.usdc, .usd or .usda) or None; checked before anything is simulated (an existing
         folder, a folder that cannot be made or written, a bad extension: ValueError or OSError naming it).
@@ -491,11 +544,20 @@ class Simulator(Persistent):
                                              where=part.locate(element))
 
 
-def _frame_arguments(seconds, fps, substeps) -> tuple[int, float, int]:
+def _substeps_argument(substeps):
+    """substeps checked: "auto", or a count >= 1 (an int)."""
+    if isinstance(substeps, str) and substeps == "auto":
+        return substeps
+    if isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer)) or substeps < 1:
+        raise checks.fail("substeps", substeps, "expected 'auto' or an integer >= 1")
+    return int(substeps)
+
+
+def _frame_arguments(seconds, fps, substeps) -> tuple[int, float, int | str]:
     """(frames, fps, substeps) of frames(), checked."""
     seconds = checks.scalar("seconds", seconds, low=0.0, low_open=True)
     fps = checks.scalar("fps", fps, low=0.0, low_open=True)
-    substeps = checks.count("substeps", substeps)
+    substeps = _substeps_argument(substeps)
     frames = int(round(seconds * fps))
     if frames < 1:
         raise checks.fail("seconds", seconds, f"covers no frame at fps={fps}; need seconds >= {0.5 / fps:g}")

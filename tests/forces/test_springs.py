@@ -75,7 +75,7 @@ def is_stable(scene, integrator, h, steps=3000, seed=0):
     x0 = sim.state.particle_x.numpy().copy()
     kick = np.random.default_rng(seed).normal(0.0, 1e-4, size=x0.shape)
     sim.state.particle_x.assign(x0 + kick)
-    sim.step(h, steps)
+    sim.step(h, steps, substeps=1)
     drift = np.abs(sim.state.particle_x.numpy() - x0)
     return bool(np.all(np.isfinite(drift)) and drift.max() < 10.0 * np.abs(kick).max())
 

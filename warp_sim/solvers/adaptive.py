@@ -99,6 +99,10 @@ class RK45(Integrator):
         self.err = wp.zeros(1, dtype=model.scalar, device=model.device)
         self._atol, self._rtol = model.scalar(self.atol), model.scalar(self.rtol)
 
+    def amplification(self, h, w2, c, stiff=True):
+        """None: it chooses its own steps from its tolerances (Integrator.amplification)."""
+        return None
+
     def stats(self) -> dict:
         """accepted and rejected internal steps, and derivative evaluations, since the solver was made."""
         return {"accepted": self.accepted, "rejected": self.rejected, "evaluations": self.evaluations}

@@ -7,6 +7,8 @@ so every component runs under every solver. Scratch states are allocated once, a
 """
 from __future__ import annotations
 
+import numpy as np
+
 from ..core.dynamics import Dynamics
 from ..core.persistence import Persistent
 from ..core.state import State
@@ -57,6 +59,18 @@ class Integrator(Persistent):
 
     def step(self, state_in: State, state_out: State, t: float, h: float) -> None:
         raise NotImplementedError
+
+    def amplification(self, h: float, w2: float, c: float, stiff: bool = True) -> np.ndarray | None:
+        """The 2 x 2 matrix one step of h [s] applies to (x, v) of the test oscillator x'' = -w2 x - c x'
+        (w2 [1/s^2], c [1/s]); stiff: the force is a spring or drag (what implicit Euler takes implicitly), not a
+        penalty contact. None: the solver picks its own steps (no fixed-step limit). Here: an explicit Runge-Kutta
+        method of ``order`` stages at most 4, whose step is the Taylor polynomial of e^(hA) of that degree."""
+        A = h * np.array([[0.0, 1.0], [-w2, -c]])
+        term = total = np.eye(2)
+        for k in range(1, self.order + 1):
+            term = term @ A / k
+            total = total + term
+        return total
 
     def stats(self) -> dict:
         """The solver's counters (empty for a fixed-step explicit solver)."""

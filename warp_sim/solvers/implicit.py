@@ -55,7 +55,7 @@ except ImportError:   # another Warp version: CG keeps its own dot products
 
 from ..kernels import implicit as implicit_kernels
 from ..util import checks
-from .partitioned import Partitioned
+from .partitioned import Partitioned, SymplecticEuler
 
 PRECONDITIONERS = ("block_jacobi", "diag", "none")
 
@@ -121,6 +121,13 @@ class ImplicitEuler(Partitioned):
 
     def __repr__(self) -> str:
         return f"ImplicitEuler(tolerance={self.tolerance:g}, max_iterations={self.max_iterations})"
+
+    def amplification(self, h, w2, c, stiff=True):
+        """Backward Euler for a spring or drag, (I - hA)^-1; a penalty contact's force is explicit in F, so it
+        steps as symplectic Euler does (Integrator.amplification)."""
+        if not stiff:
+            return SymplecticEuler.amplification(self, h, w2, c)
+        return np.linalg.inv(np.eye(2) - h * np.array([[0.0, 1.0], [-w2, -c]]))
 
     def stats(self) -> dict:
         """Every solve so far: their count, CG iterations (min, mean, max), relative residuals |b - A dv| / |b|

@@ -1,6 +1,8 @@
 """The partitioned (symplectic) solvers: kicks of the velocity block, drifts of the position block."""
 from __future__ import annotations
 
+import numpy as np
+
 from ..core.state import State
 from .base import Integrator
 
@@ -43,6 +45,11 @@ class SymplecticEuler(Partitioned):
         self.kick(state_in, state_in, state_out, t, h)
         self.drift(state_in, state_out, h)
 
+    def amplification(self, h, w2, c, stiff=True):
+        """v1 = v + h (-w2 x - c v), then x1 = x + h v1 (Integrator.amplification)."""
+        kick = np.array([[1.0, 0.0], [-h * w2, 1.0 - h * c]])
+        return np.array([[1.0, h], [0.0, 1.0]]) @ kick
+
 
 class VelocityVerlet(Partitioned):
     """Velocity Verlet: half kick, drift, half kick with the forces at the new positions.
@@ -54,3 +61,10 @@ class VelocityVerlet(Partitioned):
         self.kick(state_in, state_in, state_out, t, 0.5 * h)
         self.drift(state_in, state_out, h)
         self.kick(state_out, state_out, state_out, t + h, 0.5 * h)
+
+    def amplification(self, h, w2, c, stiff=True):
+        """A half kick at (x, v), a drift with the half-step velocity, a half kick at (x1, v_half): the
+        damper sees the half-step velocity both times (Integrator.amplification)."""
+        half_kick = np.array([[1.0, 0.0], [-0.5 * h * w2, 1.0 - 0.5 * h * c]])
+        drift = np.array([[1.0, h], [0.0, 1.0]])
+        return half_kick @ drift @ half_kick

@@ -162,7 +162,7 @@ def flip_period(integrator: str = "rk4", h: float = 1e-3, device: str = "cpu", e
     sim = Simulator(_tumbling_body(), integrator=integrator, device=device)
     times, values, crossings = [0.0], [body_frame_omega(sim)[1]], []
     while len(crossings) < 2 and sim.time < 1.5 * intermediate_axis_period():
-        sim.step(h, every)
+        sim.step(h, every, substeps=1)
         times.append(sim.time)
         values.append(body_frame_omega(sim)[1])
         (t0, t1), (w0, w1) = times[-2:], values[-2:]
@@ -184,10 +184,10 @@ def swing_period(stiffness: float = ROD_K, integrator: str = "rk4", h: float = 1
         return float(x[0] * v[1] - x[1] * v[0])
 
     turns = []
-    sim.step(h)                                  # released at rest: spin() is 0 at t = 0
+    sim.step(h, substeps=1)                              # released at rest: spin() is 0 at t = 0
     previous = (sim.time, spin())
     while len(turns) < 2 and sim.time < 2.0 * PENDULUM_PERIOD:
-        sim.step(h)
+        sim.step(h, substeps=1)
         (t0, w0), (t1, w1) = previous, (sim.time, spin())
         if w0 * w1 < 0.0:
             turns.append(t0 - w0 * (t1 - t0) / (w1 - w0))

@@ -225,6 +225,15 @@ def stability_markdown(result, images, path) -> str:
                         [[c, CASES[c].omega, *(_limit(rows[c, s]) for s in solvers)] for c in extreme]),
                   "\n" + "\n".join(f"- `{c}`: {CASES[c].title}." + (f" {CASES[c].notes}." if CASES[c].notes else "")
                                    + _in_unit(CASES[c], [rows[c, s] for s in solvers]) for c in extreme) + "\n"]
+    if result.frame_rate:
+        lines += ["\n## Substeps at frame rate: auto against the fewest that hold\n",
+                  "`sim.step(1/60)` splits each step into `sim.substeps(1/60)` pieces (`substeps=\"auto\"`, the "
+                  "default), from the solver's stable step on the scene's stiffest spring mode. Beside it, the fewest "
+                  "substeps at which the scene holds (no divergence, every particle within 10 m of the scene's start "
+                  "and slower than 200 m/s), bisected on the count with `sim.step(1/60, substeps=n)`.\n",
+                  table(["scene", "integrator", "auto", "fewest that hold", "auto / fewest", "probes"],
+                        [[r["scene"], r["integrator"], r["auto"], r["fewest"], r["ratio"], r["probes"]]
+                         for r in result.frame_rate])]
     if result.damping:
         lines += ["\n## Implicit Euler's numerical damping\n",
                   "On the ks/m = 1e4 spring: the amplitude factor per step, measured from the energy after N "
@@ -233,8 +242,8 @@ def stability_markdown(result, images, path) -> str:
                         [[d["omega_h"], d["steps"], d["amplitude_per_step"], d["theory"]] for d in result.damping])]
     if images:
         lines += ["\n## Plots\n", images_md(images, path)]
-    lines.append("\nAll searches: `stability.csv` (limit and smallest unstable h [s], omega, omega h, theory, "
-                 "ratio, steps per run, probes).\n")
+    lines.append("\nAll searches: `stability.csv` (limit and smallest unstable h [s], the longest piece "
+                 "`substeps=\"auto\"` takes (auto_step [s]), omega, omega h, theory, ratio, steps per run, probes).\n")
     return "\n".join(lines)
 
 

@@ -18,10 +18,12 @@ from dataclasses import dataclass, field
 from .. import cluster
 from ..simulator import Simulator, resolve_device
 from ..solvers import INTEGRATORS
+from ..solvers.stability import unchecked_steps
 from ..util import checks
 from . import report
 from .cases import CASES, QUICK_SPRING_RATIOS, SPRING_RATIOS, spring_name
 from .common import COSTLY, is_adaptive, names
+from .frame_rate import FRAME_SCENES, FRAME_SOLVERS, QUICK_FRAME_SCENES, frame_rate_row
 from .plots import stability_plots
 from .settings import (
     BISECTIONS,
@@ -52,12 +54,25 @@ def run_length_limit(integrator: str, steps: int, growth: float = GROWTH) -> flo
 
 
 def grows(case, integrator: str, h: float, steps: int, device: str) -> tuple[bool, list]:
-    """(unstable, sizes): one run of ``steps`` steps of h seconds, its size sampled along the way."""
-    sim = Simulator(case.build(), integrator=integrator, device=device, guard=False, **case.options)
+    """(unstable, sizes): one run of ``steps`` steps of h seconds each (one piece each: substeps=1), its size
+    sampled along the way."""
+    with unchecked_steps():   # too long a step for the scene is what is being measured
+        sim = Simulator(case.build(), integrator=integrator, device=device, guard=False, **case.options)
+        return _grows(sim, case, h, steps)
+
+
+def auto_step(case, integrator: str, device: str) -> float:
+    """The longest piece substeps="auto" takes on the case (``Simulator.step_limit``) [s]; inf: none binds."""
+    with unchecked_steps():
+        return Simulator(case.build(), integrator=integrator, device=device, guard=False,
+                         **case.options).step_limit.step
+
+
+def _grows(sim, case, h: float, steps: int) -> tuple[bool, list]:
     stride = 1 if case.duration is None else max(1, steps // SAMPLES)   # a sampled energy can alias
     sizes, first = [case.size(sim)], None
     for done in range(stride, steps + 1, stride):
-        sim.step(h, stride)
+        sim.step(h, stride, substeps=1)
         size = case.size(sim)
         sizes.append(size)
         if case.bound is not None:   # a bounded case: unstable once past its bound (its size starts at 0)
@@ -131,13 +146,15 @@ def implicit_damping(device: str = "cpu", quick: bool = False) -> list[dict]:
 @dataclass
 class StabilityResult(report.Report):
     """rows: one dict per (case, integrator): limit [s] (largest stable step found, NaN if none),
-    unstable [s] (smallest unstable step found, NaN if none), omega [rad/s], limit_omega_h, theory_omega_h,
-    ratio (measured / theory), probes; damping: implicit Euler's measured numerical damping;
-    wall_seconds; settings."""
+    auto_step [s] (the longest piece substeps="auto" takes there), unstable [s] (smallest unstable step found, NaN
+    if none), omega [rad/s], limit_omega_h, theory_omega_h, ratio (measured / theory), probes; damping: implicit
+    Euler's measured numerical damping; frame_rate: per (scene, integrator) of studies.frame_rate, the substeps
+    "auto" takes at 1/60 s beside the fewest that hold (bisected); wall_seconds; settings."""
     rows: list
     damping: list
     wall_seconds: float
     settings: dict = field(default_factory=dict)
+    frame_rate: list = field(default_factory=list)
 
     def limit(self, case: str, integrator: str) -> float:
         return next(r["limit"] for r in self.rows if r["case"] == case and r["integrator"] == integrator)
@@ -162,6 +179,7 @@ def stability_row(name: str, integrator: str, device: str, quick: bool) -> dict:
     limit, unstable = found["limit"] or math.nan, found["unstable"] or math.nan
     omega_h = limit * case.omega if case.omega else math.nan
     return {"case": name, "group": case.group, "integrator": integrator, "limit": limit,
+            "auto_step": auto_step(case, integrator, device),
             "unstable": unstable, "omega": case.omega or math.nan, "limit_omega_h": omega_h,
             "theory_omega_h": math.nan if theory is None else theory,
             "ratio": omega_h / theory if theory and math.isfinite(theory) else math.nan,
@@ -169,14 +187,16 @@ def stability_row(name: str, integrator: str, device: str, quick: bool) -> dict:
 
 
 def stability(cases=None, integrators=None, quick=False, device="cpu", log=None, client=None, workers=None,
-              scheduler=None) -> StabilityResult:
+              scheduler=None, frame_scenes=None) -> StabilityResult:
     """Run the stability study; returns a StabilityResult.
 
     cases: names from CASES (default: all; with quick, the springs at ks/m = 1e2 and 1e8 and every
     extreme case); integrators: names from INTEGRATORS (default: all fixed-step ones; adaptive
     solvers choose their own step and are skipped); log: a callable given a line per case;
     client, scheduler or workers: run each (case, integrator) as a task on a Dask cluster (``cluster.connect``),
-    which gives the same rows.
+    which gives the same rows; frame_scenes: names from frame_rate.FRAME_SCENES, whose fewest stable substeps at
+    1/60 s are bisected for the chosen solvers among rk4, symplectic_euler and verlet (default: all of them where
+    ``cases`` is None, the demo and the 32^2 cloth with quick; none where cases are named).
     """
     started = time.perf_counter()
     chosen = names("cases", cases, list(CASES))
@@ -191,6 +211,11 @@ def stability(cases=None, integrators=None, quick=False, device="cpu", log=None,
                                                       f"expected fixed-step solvers from {', '.join(fixed)}")
     device = resolve_device(device)
     tasks = [(f"{name}-{integrator}", (name, integrator, device, quick)) for name in chosen for integrator in solvers]
+    if frame_scenes is None:
+        frame_scenes = [] if cases is not None else list(QUICK_FRAME_SCENES if quick else FRAME_SCENES)
+    frame_scenes = names("frame_scenes", frame_scenes, list(FRAME_SCENES)) if frame_scenes else []
+    frame_tasks = [(f"{name}-{integrator}", (name, integrator, device)) for name in frame_scenes
+                   for integrator in solvers if integrator in FRAME_SOLVERS]
     arrived: dict[str, dict] = {}
 
     def logged(key, row):   # a line per case, once all its integrators are in
@@ -200,5 +225,12 @@ def stability(cases=None, integrators=None, quick=False, device="cpu", log=None,
             log(f"{row['case']}: largest stable h [s] {shown} ({time.perf_counter() - started:.0f} s)")
     rows = cluster.map_tasks(stability_row, tasks, client, scheduler, workers, "stability cases", logged)
     damping = implicit_damping(device, quick) if "implicit_euler" in solvers else []
+
+    def frame_logged(key, row):
+        if log is not None:
+            log(f"{row['scene']} at 1/60 s, {row['integrator']}: auto {row['auto']} substeps, fewest that hold "
+                f"{row['fewest']} ({time.perf_counter() - started:.0f} s)")
+    frame_rate = cluster.map_tasks(frame_rate_row, frame_tasks, client, scheduler, workers, "frame-rate scenes",
+                                   frame_logged) if frame_tasks else []
     settings = {"quick": quick, "device": device, "growth": GROWTH}
-    return StabilityResult(rows, damping, time.perf_counter() - started, settings)
+    return StabilityResult(rows, damping, time.perf_counter() - started, settings, frame_rate)
