@@ -40,6 +40,8 @@ def resolve_device(device: str | None) -> str:
     return device
 
 
+#: the largest finite float32 [-]: a frame with a larger value is divergence (a stage stores float32)
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 #: an adaptive solver taking more internal steps than this for one frame gets a warning (once per run)
 SLOW_FRAME_STEPS = 1000
 
@@ -255,7 +257,7 @@ class Simulator(Persistent):
         (``sim.step_limit``) and the contact step need; a count n takes n equal pieces (each split further only
         by contact_step), and warns once if they are longer than the stable step."""
         h = checks.scalar("dt", dt, low=0.0, low_open=True)
-        substeps = _substeps_argument(substeps)
+        substeps = checks.substeps("substeps", substeps)
         for _ in range(checks.count("steps", steps)):
             self._advance(h, substeps)
         self.check()
@@ -494,8 +496,7 @@ class Simulator(Persistent):
                                        desc="simulating") as bar:
                 for frame, _, arrays in self._frame_loop(total, fps, substeps, usd is not None, first, start_time):
                     if writer is not None:
-                        if self.guard is None:
-                            self._refuse_non_finite(frame, arrays)
+                        self._refuse_unwritable(frame, arrays)
                         if writer.write_frame(frame, **arrays):
                             saved, values = persistence.save(self)
                             writer.checkpoint(saved, dict(values, **{"run.start_time": start_time}))
@@ -524,40 +525,33 @@ class Simulator(Persistent):
         parts.update({f"pass{k}.{type(p).__name__}": p for k, p in enumerate(self.passes) if p.persistent})
         return parts
 
-    def _refuse_non_finite(self, frame: int, arrays: dict) -> None:
-        """With the guard off: a frame holding a non-finite position or velocity raises SimulationDiverged
-        (the frames before it are kept, as with the guard)."""
+    def _refuse_unwritable(self, frame: int, arrays: dict) -> None:
+        """A frame holding a position, velocity or orientation that float32 cannot hold (non-finite, or beyond
+        +-3.4e38: a float64 state on its way to infinity) raises SimulationDiverged, whatever the guard setting: the
+        frames before it are kept, as with the guard, and a stage never holds an infinity."""
         alive = arrays.get("particle_alive")
         for component, names in (("particles", ("particle_x", "particle_v")), ("bodies", ("body_x", "body_q"))):
             for name in names:
                 values = arrays.get(name)
                 if values is None:
                     continue
-                bad = ~np.isfinite(values).all(axis=1)
+                bad = ~(np.abs(values) <= FLOAT32_MAX).all(axis=1)   # NaN compares False
                 if alive is not None and component == "particles":
                     bad &= alive.astype(bool)
                 if bad.any():
                     element = int(np.flatnonzero(bad)[0])
                     part = next(c for c in self.dynamics.components if c.name == component)
                     raise SimulationDiverged(self.step_count, self.time, component, element,
-                                             f"non-finite {name} in frame {frame} (guard off)",
+                                             f"{name} beyond float32's finite range (+-3.4e38) or non-finite in "
+                                             f"frame {frame}, which a USD stage cannot hold",
                                              where=part.locate(element))
-
-
-def _substeps_argument(substeps):
-    """substeps checked: "auto", or a count >= 1 (an int)."""
-    if isinstance(substeps, str) and substeps == "auto":
-        return substeps
-    if isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer)) or substeps < 1:
-        raise checks.fail("substeps", substeps, "expected 'auto' or an integer >= 1")
-    return int(substeps)
 
 
 def _frame_arguments(seconds, fps, substeps) -> tuple[int, float, int | str]:
     """(frames, fps, substeps) of frames(), checked."""
     seconds = checks.scalar("seconds", seconds, low=0.0, low_open=True)
     fps = checks.scalar("fps", fps, low=0.0, low_open=True)
-    substeps = _substeps_argument(substeps)
+    substeps = checks.substeps("substeps", substeps)
     frames = int(round(seconds * fps))
     if frames < 1:
         raise checks.fail("seconds", seconds, f"covers no frame at fps={fps}; need seconds >= {0.5 / fps:g}")

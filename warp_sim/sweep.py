@@ -185,7 +185,7 @@ def _save(out: pathlib.Path, rows: list[dict]) -> SweepResult:
     return result
 
 
-def sweep(build, grid, *, seconds: float, fps: float = 60.0, substeps: int = 8, integrator="rk4", measure=None,
+def sweep(build, grid, *, seconds: float, fps: float = 60.0, substeps="auto", integrator="rk4", measure=None,
           out="sweep", client=None, workers: int | None = None, device: str | None = None,
           scheduler: str | None = None, progress: bool = True, on_start=None) -> SweepResult:
     """Run every variant of ``grid`` (see the module docstring) on a Dask cluster; returns a SweepResult.
@@ -203,7 +203,7 @@ def sweep(build, grid, *, seconds: float, fps: float = 60.0, substeps: int = 8, 
     if len(set(ids)) != len(ids):
         raise checks.fail("grid", grid, "holds the same variant twice")
     run = {"seconds": checks.scalar("seconds", seconds, low=0.0, low_open=True),
-           "fps": checks.scalar("fps", fps, low=0.0, low_open=True), "substeps": checks.count("substeps", substeps),
+           "fps": checks.scalar("fps", fps, low=0.0, low_open=True), "substeps": checks.substeps("substeps", substeps),
            "integrator": integrator, "device": device}
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)

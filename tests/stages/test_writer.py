@@ -146,10 +146,12 @@ def test_close_returns_path_and_creates_parents(tmp_path):
 
 
 @pytest.mark.parametrize("array", ["particle_x", "particle_v"])
-@pytest.mark.parametrize("bad", [math.nan, math.inf])
+@pytest.mark.parametrize("bad", [math.nan, math.inf, 1e39, -3.5e38])
 def test_non_finite_raises_and_leaves_nothing(tmp_path, array, bad):
+    """NaN, an infinity, and a float64 value beyond float32's largest (3.4028e38), which a stage's float32 points
+    and velocities would hold as an infinity, are all refused before anything is written."""
     path = tmp_path / "run.usdc"
-    data = frames(3)
+    data = [(x.astype(np.float64), v.astype(np.float64)) for x, v in frames(3)]
     with pytest.raises(ValueError, match=rf"frame 2: {array} .* index 5"):
         with StageWriter(path, 100, make_layout(), chunk_frames=1) as w:
             for k, (x, v) in enumerate(data):

@@ -20,7 +20,7 @@ writes the animated PNG alone, ``book.save("clip.html")`` a page. :func:`animate
     from warp_sim import preview
 
     sim = ws.Simulator(scene, integrator="symplectic_euler", device="cpu")
-    preview.animate(sim, seconds=2.0, fps=30, substeps=8)        # runs the simulator, then shows it
+    preview.animate(sim, seconds=2.0, fps=30)                    # substeps="auto", as Simulator.run        # runs the simulator, then shows it
     preview.animate("out/scene.usdc", camera=dict(azimuth=60))   # or a written stage
 
 The camera: ``camera=None`` looks at the centre of the box around everything in every frame (planes
@@ -45,7 +45,7 @@ __all__ = ["Camera", "Snapshot", "Recording", "snapshot", "record", "read_usd", 
 
 
 def animate(source, camera=None, width: int = 320, height: int = 240, seconds: float | None = None,
-            fps: float | None = None, substeps: int = 8, frames=None, min_point_px: float = 1.0,
+            fps: float | None = None, substeps="auto", frames=None, min_point_px: float = 1.0,
             title: str = "warp_sim preview") -> Flipbook:
     """Render ``source`` (see :func:`render`) and return its Flipbook, played at ``fps`` (default: the
     recording's frame rate; for a Simulator, also the rate it is recorded at, 30 when not given)."""

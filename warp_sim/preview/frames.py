@@ -294,9 +294,9 @@ def snapshot(sim) -> Recording:
     return Recording([layout.snapshot(sim.frame_arrays(), sim.time)], layout.static, layout.planes)
 
 
-def record(sim, seconds: float, fps: float = 30.0, substeps: int = 8, callback=None) -> Recording:
-    """Run ``sim`` for round(seconds * fps) frames of ``substeps`` steps each (as ``Simulator.run`` does: frame 0
-    is the state before the first step, steps of 1 / (fps substeps) seconds) and keep what each frame shows.
+def record(sim, seconds: float, fps: float = 30.0, substeps="auto", callback=None) -> Recording:
+    """Run ``sim`` for round(seconds * fps) frames (``substeps`` as ``Simulator.run`` takes it: frame 0
+    is the state before the first step) and keep what each frame shows.
 
     seconds [s], fps [frames per second]; callback(sim, frame) is called after each frame is taken (e.g.
     to measure something). Returns a Recording."""

@@ -401,7 +401,7 @@ def _camera(camera, recording: Recording, aspect: float) -> Camera:
 
 
 def render(source, camera=None, width: int = 320, height: int = 240, seconds: float | None = None,
-           fps: float = 30.0, substeps: int = 8, frames=None, min_point_px: float = 1.0) -> list:
+           fps: float = 30.0, substeps="auto", frames=None, min_point_px: float = 1.0) -> list:
     """Render ``source`` to a list of (height, width, 3) uint8 RGB images, one per frame.
 
     source: a Recording, a Snapshot, a USD stage path (``frames``: its time codes, default all) or a

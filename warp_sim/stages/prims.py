@@ -32,6 +32,8 @@ class Frame:
 
 #: ``write_frame``'s per-particle arrays required by pooled groups.
 POOL_ARRAYS = ("particle_alive", "particle_id", "particle_radius", "particle_color", "particle_opacity")
+#: the largest finite float32: a stage's points, velocities and widths are float32, so a larger value is refused
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -95,10 +97,11 @@ def check_rows(frame: int, name: str, a, width: int | None, min_rows: int, what:
              f"got {a.shape}")
     if checked is not None and len(a) != len(checked):
         raise ValueError(f"frame {frame}: {name} has {len(a)} rows but particle_alive has {len(checked)}")
-    if a.dtype.kind not in "biu":
-        bad = _first_bad(~np.isfinite(a), checked)
+    if a.dtype.kind not in "biu":   # float32's finite range: a float64 value beyond it is an infinity in USD
+        bad = _first_bad(~(np.abs(a) <= FLOAT32_MAX), checked)
         if bad is not None:
-            raise ValueError(f"frame {frame}: {name} has a non-finite value at {what} index {bad}")
+            kind = "non-finite value" if not np.isfinite(a[bad]).all() else "value beyond float32's range (+-3.4e38)"
+            raise ValueError(f"frame {frame}: {name} has a {kind} at {what} index {bad}")
     return a
 
 

@@ -139,6 +139,15 @@ def count(name: str, value, low: int = 1) -> int:
     return int(value)
 
 
+def substeps(name: str, value):
+    """A substep setting: "auto" (chosen from the scene's stability), or a whole number >= 1."""
+    if isinstance(value, str) and value == "auto":
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise fail(name, value, "expected 'auto' or an integer >= 1")
+    return int(value)
+
+
 def choice(name: str, value, options) -> str:
     """One of the named options."""
     if value not in options:
