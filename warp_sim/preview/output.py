@@ -188,8 +188,8 @@ def apng_bytes(frames, fps: float = 30.0, loops: int = 0, level: int = 9) -> byt
 _FLIPBOOK_IDS = itertools.count()
 
 #: splitAPNG(binary string of an APNG) -> [base64 PNG file of each frame]: the header chunks (IHDR, PLTE, ...; not
-#: acTL), one IDAT of the frame's data (IDAT or fdAT less its sequence number), IEND. For the frames that
-#: _animated_png writes, each is the frame's PNG file byte for byte (tests/preview/test_apng.py runs it in node).
+#: acTL), one IDAT of the frame's data (IDAT or fdAT less its sequence number), IEND. For frames from png_bytes
+#: (one IDAT each), each is the frame's own PNG file byte for byte (tests/preview/test_apng.py runs it in node).
 _SPLIT_APNG_JS = """\
 function splitAPNG(bin) {
   var table = [];
