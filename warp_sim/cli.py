@@ -106,8 +106,12 @@ def _start_warp(verbose: bool) -> bool:
         return False
     seen = []
     sys.stderr.flush()
+    try:
+        saved = os.dup(2)
+    except OSError:   # no stderr to keep clean
+        wp.init()
+        return False
     read, write = os.pipe()
-    saved = os.dup(2)
 
     def forward():
         with os.fdopen(read, "rb") as pipe:
