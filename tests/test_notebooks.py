@@ -17,6 +17,8 @@ import pathlib
 import pytest
 import warp as wp
 
+pytestmark = pytest.mark.slow   # every notebook executed: about 15 s
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 

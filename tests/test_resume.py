@@ -201,6 +201,7 @@ def uninterrupted(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow   # three demo processes killed and resumed
 @pytest.mark.parametrize("signum", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT])
 def test_a_killed_command_resumes_to_the_same_stage(tmp_path, uninterrupted, signum):
     """SIGKILL (nothing runs), SIGTERM (exit 143) or Ctrl-C (130) mid-run, then ``--resume``: the stage is identical
@@ -235,6 +236,7 @@ def small_disk(tmp_path):
     subprocess.run(["umount", "-l", str(mount)], check=False)
 
 
+@pytest.mark.slow   # a tmpfs filled and freed
 def test_a_full_disk_keeps_whole_files_only_and_resumes_once_freed(small_disk, tmp_path):
     """The disk fills mid-run: the command prints one line naming the user's path, exits 1 and leaves only whole
     chunks and a checkpoint (no temporary file); once space is freed, --resume completes the same stage as a run

@@ -59,15 +59,16 @@ def test_an_explicit_count_is_honoured_and_warns_once_when_too_few():
     limit and the stable count; substeps=4 takes 4 and does not warn."""
     sim = ws.Simulator(demo_scene(), integrator="rk4")
     stable = sim.substeps(1 / 60)
-    with pytest.warns(RuntimeWarning, match=rf"substeps=2 gives steps of 0.008333 s, longer than rk4's stable step "
-                                            rf"on this scene, .* {stable} substeps of a 0.01667 s step would be stable"):
+    with pytest.warns(RuntimeWarning, match=rf"substeps=2 gives steps of 0.008333 s, longer than rk4's stable "
+                                            rf"step on this scene, .* {stable} substeps of a 0.01667 s step would be "
+                                            "stable"):
         sim.step(1 / 60, substeps=2)
-    assert sim._piece_count(1 / 60, 2) == 2
+    assert sim._substeps.pieces(1 / 60, 2) == 2
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sim.step(1 / 60, substeps=2)   # once per Simulator
         sim.step(1 / 60, substeps=4)
-    assert sim._piece_count(1 / 60, 4) == 4 and sim.step_count == 3
+    assert sim._substeps.pieces(1 / 60, 4) == 4 and sim.step_count == 3
 
 
 def test_run_takes_auto_substeps_per_frame_and_counts_one_step_a_frame(tmp_path):
@@ -124,3 +125,13 @@ def test_the_frame_rate_study_finds_auto_within_a_quarter_of_the_fewest_that_hol
     row = frame_rate_row("demo", "rk4", "cpu")
     assert row["fewest"] <= row["auto"] <= 1.25 * row["fewest"]
     assert not holds(FRAME_SCENES["demo"], "rk4", row["fewest"] - 1, "cpu")
+
+
+def test_run_warns_in_the_terms_of_its_own_count(tmp_path):
+    """run(substeps=2) on the demo under rk4 warns about 2 substeps of a 1/60 s frame (not the 1 of each step it
+    takes inside), with the count that would hold the frame."""
+    sim = ws.Simulator(demo_scene(), integrator="rk4")
+    stable = sim.substeps(1 / 60)
+    with pytest.warns(RuntimeWarning, match=rf"substeps=2 gives steps of 0.008333 s, .* {stable} substeps of a "
+                                            r"0.01667 s step would be stable"):
+        sim.run(seconds=2 / 60, fps=60, substeps=2, progress=False)   # frames 0 and 1: one frame stepped

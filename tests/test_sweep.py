@@ -19,6 +19,8 @@ from warp_sim import cluster, studies  # noqa: E402
 from warp_sim.cli import main  # noqa: E402
 from warp_sim.core.cpu_threads import VARIABLE, available_cores  # noqa: E402
 
+pytestmark = pytest.mark.slow   # real Dask LocalClusters of worker processes: seconds each to start
+
 H0, RADIUS = 1.0, 0.01   # drop height of the ball's bottom [m], its radius [m]
 
 SCRIPT = textwrap.dedent(f"""

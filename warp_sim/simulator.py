@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import contextlib
-import math
 import signal
 import threading
 import warnings
@@ -19,7 +18,8 @@ from .core.guards import Guard, SimulationDiverged
 from .core.persistence import Persistent
 from .kernels import rigid as rigid_kernels
 from .scene import Scene
-from .solvers.stability import MAX_AUTO_SUBSTEPS, step_limit
+from .solvers.stability import step_limit
+from .solvers.substeps import Substeps
 from .stages import StageWriter, stage_layout
 from .stages.overlay import Overlay
 from .util import checks
@@ -151,13 +151,9 @@ class Simulator(Persistent):
         self._graphs = self._step_graphs() if capture else None
         #: the longest step the solver takes stably on this scene (solvers.stability), which substeps="auto" keeps to
         self.step_limit = step_limit(scene, self.integrator, stiffness if contact == "penalty" else None, collisions)
-        self._pieces: dict = {}
-        self._warned_substeps = False
-        if self.step_limit.grows_at_any_step:
-            warnings.warn(f"integrator={self.integrator.name!r} grows an undamped oscillator at any step, and this "
-                          f"scene has one ({self.step_limit.cause}): substeps='auto' keeps the growth to 1 % a second "
-                          f"with steps of {self.step_limit.step:.3g} s; symplectic_euler, verlet, rk4 or "
-                          "implicit_euler hold it at far longer steps", UserWarning, stacklevel=2)
+        self._substeps = Substeps(self.step_limit, [p.max_step for p in self.passes if p.max_step is not None],
+                                  self.integrator.name)
+        self._substeps.warn_if_growing()
         self._load_kernels()
         self.time = 0.0
         self.step_count = 0
@@ -277,47 +273,13 @@ class Simulator(Persistent):
         the solver's stable step on this scene (``step_limit``: its stiffest springs, penalty contacts) nor than
         any pass's max_step (a pile or stack at frame rate: the body contacts' 1/120 s by default); at least 1, at
         most MAX_AUTO_SUBSTEPS."""
-        h = checks.scalar("h", h, low=0.0, low_open=True)
-        return self._piece_count(h, "auto")
+        return self._substeps.auto(checks.scalar("h", h, low=0.0, low_open=True))
 
-    def _pass_pieces(self, h: float) -> int:
-        """The fewest equal pieces of h seconds no longer than any pass's max_step."""
-        limits = [p.max_step for p in self.passes if p.max_step is not None]
-        return max([1] + [math.ceil(h / limit * (1.0 - 1e-12)) for limit in limits])
-
-    def _piece_count(self, h: float, substeps) -> int:
-        """The pieces of a step of h seconds under ``substeps`` ("auto" or a count), remembered per (h, substeps);
-        the first explicit count whose pieces are longer than the stable step warns, once per Simulator."""
-        key = (h, substeps)
-        count = self._pieces.get(key)
-        if count is None:
-            limit = self.step_limit
-            if substeps == "auto":
-                count = max(limit.pieces(h), self._pass_pieces(h))
-                if count > MAX_AUTO_SUBSTEPS:
-                    warnings.warn(f"substeps='auto': a step of {h:.4g} s needs {count} substeps to stay stable with "
-                                  f"{self.integrator.name} ({limit.cause}); it takes {MAX_AUTO_SUBSTEPS}, and may "
-                                  "diverge: use implicit_euler, or a shorter step", RuntimeWarning, stacklevel=4)
-                    count = MAX_AUTO_SUBSTEPS
-            else:
-                count = substeps * self._pass_pieces(h / substeps)
-                if h / count > limit.longest and not self._warned_substeps:
-                    self._warned_substeps = True
-                    stable = max(limit.pieces(h), self._pass_pieces(h))
-                    warnings.warn(f"substeps={substeps} gives steps of {h / count:.4g} s, longer than "
-                                  f"{self.integrator.name}'s stable step on this scene, {limit.longest:.4g} s "
-                                  f"({limit.cause}); {stable} substeps of a {h:.4g} s step would be stable "
-                                  + ("(substeps='auto' chooses them)" if stable <= MAX_AUTO_SUBSTEPS else
-                                     f"(more than the {MAX_AUTO_SUBSTEPS} substeps='auto' takes: a solver stable "
-                                     "at longer steps suits this scene)"), RuntimeWarning, stacklevel=4)
-            self._pieces[key] = count
-        return count
-
-    def _advance(self, h: float, substeps="auto") -> None:
-        """One step of h seconds (in ``_piece_count(h, substeps)`` equal pieces): per piece the solver from state
-        into the spare state, the passes on it and the swap (replayed from a graph where captured); then the
+    def _advance(self, h: float, substeps="auto", asked: tuple | None = None) -> None:
+        """One step of h seconds (in ``solvers.substeps.Substeps.pieces`` equal pieces): per piece the solver from
+        state into the spare state, the passes on it and the swap (replayed from a graph where captured); then the
         guard."""
-        pieces = self._piece_count(h, substeps)
+        pieces = self._substeps.pieces(h, substeps, asked)
         piece = h / pieces
         start_time = self.time
         for k in range(pieces):
@@ -409,12 +371,13 @@ class Simulator(Persistent):
         """Frames ``first`` to ``frames - 1`` of a run that started at ``start_time`` (default: now, from frame 0;
         a resumed run's state is that of frame ``first - 1``)."""
         steps, h, split = (1, 1.0 / fps, "auto") if substeps == "auto" else (substeps, 1.0 / (fps * substeps), 1)
+        asked = None if substeps == "auto" else (substeps, 1.0 / fps)
         start_time = self.time if start_time is None else start_time
         accepted, warned = self.integrator.stats().get("accepted"), False
         for frame in range(first, frames):
             if frame > 0:
                 for _ in range(steps):
-                    self._advance(h, split)
+                    self._advance(h, split, asked)
                 self.time = start_time + frame / fps
                 self.check()
                 if accepted is not None and not warned:   # an adaptive solver: how hard did this frame make it work?

@@ -129,6 +129,7 @@ def _assert_same_bodies(a, b):
         np.testing.assert_array_equal(getattr(a.state, name).numpy(), getattr(b.state, name).numpy())
 
 
+@pytest.mark.slow   # piles twice each
 @pytest.mark.parametrize("rates", [(500.0,), (60.0,), (500.0, 240.0)])
 def test_a_captured_pile_equals_the_uncaptured_pile_bit_for_bit_through_its_misses(rates):
     """The contact pass is captured: launches over the last uncaptured counts and colours with headroom, gated on

@@ -17,6 +17,8 @@ import warp as wp
 import warp_sim.kernels as package
 from warp_sim.kernels import precisions
 
+pytestmark = pytest.mark.slow   # every module compiled for CUDA by NVRTC: about 2 minutes
+
 SCENES = textwrap.dedent("""
     import numpy as np, warp as wp, warnings
     wp.config.quiet = True

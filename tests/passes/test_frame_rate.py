@@ -62,6 +62,7 @@ def test_without_sub_steps_a_frame_rate_step_is_one_step():
         ws.Simulator(scenes.stack(3), contact_step=0.0)
 
 
+@pytest.mark.slow   # four 1000-body piles landing
 @pytest.mark.parametrize("precision", PRECISIONS)
 @pytest.mark.parametrize("integrator", INTEGRATORS)
 def test_landing_pile_never_sinks_into_the_ground(precision, integrator):

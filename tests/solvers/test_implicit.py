@@ -221,6 +221,7 @@ def test_small_cloth_stays_finite_and_loses_energy(capsys):
     run_cloth(16, capsys, seconds=3.0)
 
 
+@pytest.mark.slow   # about a minute
 def test_64x64_cloth_stays_finite_and_loses_energy(capsys):
     """64 x 64 particles, 24 000 springs of k = 1e4 N/m, 600 steps of 1/60 s. This system needs over
     200 CG iterations a step for a 1e-6 residual (h^2 k / m is about 3e3: badly conditioned), at ~3.5 ms

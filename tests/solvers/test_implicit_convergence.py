@@ -11,6 +11,8 @@ import pytest
 
 import warp_sim as ws
 
+pytestmark = pytest.mark.slow   # CG solves to tight tolerances at 128^2: about 25 s
+
 H = 1.0 / 60.0
 CLOTH = {"size": (1.0, 1.0), "position": (0.0, 1.0, 0.0), "density": 0.2, "pinned": ["top_corners"],
          "stiffness": (1.0e4, 1.0e4, 1.0e3), "damping": (0.01, 0.01, 0.001)}

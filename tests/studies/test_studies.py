@@ -88,6 +88,7 @@ def test_command_line(tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out
 
 
+@pytest.mark.slow   # both quick studies whole: about a minute
 @pytest.mark.parametrize("study, names", [("accuracy", "PROBLEMS"), ("stability", "CASES")])
 def test_quick_study_command_runs_whole(tmp_path, study, names):
     """What CI runs: each study command in its --quick mode over every problem or case and integrator."""

@@ -20,7 +20,7 @@ writes the animated PNG alone, ``book.save("clip.html")`` a page. :func:`animate
     from warp_sim import preview
 
     sim = ws.Simulator(scene, integrator="symplectic_euler", device="cpu")
-    preview.animate(sim, seconds=2.0, fps=30)                    # substeps="auto", as Simulator.run        # runs the simulator, then shows it
+    preview.animate(sim, seconds=2.0, fps=30)                    # runs the simulator (as run()), then shows it
     preview.animate("out/scene.usdc", camera=dict(azimuth=60))   # or a written stage
 
 The camera: ``camera=None`` looks at the centre of the box around everything in every frame (planes

@@ -44,9 +44,9 @@ class StepLimit:
     """The longest step [s] a solver takes stably on a scene (math.inf: none binds), and why.
 
     step: SAFETY times the longest stable step of the stiffest mode [s]; longest: that longest stable step itself
-    [s] (a step beyond it grows the mode); omega: that mode's angular frequency [rad/s] (0 without one); cause: what it is, in words ("the springs' stiffest mode, omega = 471 rad/s, at
-    particle 1197"); grows_at_any_step: the solver grows an undamped oscillator at any step (euler, midpoint)
-    and the scene has one."""
+    [s] (a step beyond it grows the mode); omega: that mode's angular frequency [rad/s] (0 without one); cause:
+    what it is, in words ("the springs' stiffest mode, omega = 471 rad/s, at particle 1197"); grows_at_any_step:
+    the solver grows an undamped oscillator at any step (euler, midpoint) and the scene has one."""
     step: float
     longest: float = math.inf
     omega: float = 0.0
