@@ -2,7 +2,10 @@
 import pytest
 import warp as wp
 
+from warp_sim.core import compiling
+
 wp.config.log_level = wp.LOG_WARNING
+compiling.set_notices(False)   # a cold cache's "compiling kernels" line would add to the stderr tests count
 
 DEVICES = ["cpu"] + (["cuda"] if wp.get_cuda_device_count() > 0 else [])
 
