@@ -1,4 +1,8 @@
 """Small scene builders and stage readers shared by the tests."""
+import importlib.util
+import pathlib
+import sys
+
 import numpy as np
 from pxr import Sdf
 
@@ -84,3 +88,16 @@ def stage_samples(path) -> dict:
                 found[(str(spec_path), t)] = np.asarray(value).tobytes() if hasattr(value, "__len__") else repr(value)
     layer.Traverse(Sdf.Path.absoluteRootPath, visit)
     return found
+
+
+TOOLS = pathlib.Path(__file__).resolve().parent.parent / "tools"
+
+
+def load_tool(name: str):
+    """The module tools/<name>.py (the tools are scripts, not a package; their shared modules sit beside them)."""
+    if str(TOOLS) not in sys.path:
+        sys.path.insert(0, str(TOOLS))
+    spec = importlib.util.spec_from_file_location(name, TOOLS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

@@ -2,7 +2,6 @@
 without it), it names every name of warp_sim.__all__, its generation is deterministic (another hash seed gives
 the same page) and cheap; and the claims of its units and conventions table hold in the code: quaternion orders
 in Python and in USD, the flat cloth's orientation, half and full sizes, degrees in USD."""
-import importlib.util
 import math
 import pathlib
 import re
@@ -12,6 +11,7 @@ import time
 
 import numpy as np
 import pytest
+from helpers import load_tool
 from pxr import Gf, Usd, UsdGeom, UsdPhysics, Vt
 
 import warp_sim as ws
@@ -22,14 +22,7 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 FIX = "python tools/api_docs.py"
 
 
-def _tool():
-    spec = importlib.util.spec_from_file_location("api_docs", ROOT / "tools" / "api_docs.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-api_docs = _tool()
+api_docs = load_tool("api_docs")
 
 
 @pytest.fixture(scope="module")

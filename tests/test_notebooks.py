@@ -10,12 +10,12 @@ The saved files are checked as they are (not re-run): every notebook shows at le
 outputs come from its current source. After editing a notebook, run ``python tools/run_notebooks.py``.
 """
 
-import importlib.util
 import json
 import pathlib
 
 import pytest
 import warp as wp
+from helpers import load_tool
 
 pytestmark = pytest.mark.slow   # every notebook executed: about 15 s
 
@@ -23,14 +23,7 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 
 
-def _runner():
-    spec = importlib.util.spec_from_file_location("run_notebooks", ROOT / "tools" / "run_notebooks.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-runner = _runner()
+runner = load_tool("run_notebooks")
 
 
 @pytest.fixture

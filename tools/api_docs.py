@@ -17,13 +17,12 @@ USD) and that this page is what this tool writes now. Regenerating takes about a
 """
 from __future__ import annotations
 
-import argparse
-import difflib
 import inspect
 import re
 import sys
 from pathlib import Path
 
+import generated_page  # tools/: beside this file (on sys.path when run as a script)
 import pdoc.doc
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -260,28 +259,12 @@ def render() -> str:
 
 def check(path: Path = DOCS) -> list[str]:
     """The unified diff from ``path`` to the page as generated now: empty when it is up to date."""
-    current = path.read_text(encoding="utf-8") if path.exists() else ""
-    return list(difflib.unified_diff(current.splitlines(keepends=True), render().splitlines(keepends=True),
-                                     fromfile=str(path), tofile="generated"))
+    return generated_page.diff(path, render())
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--check", action="store_true", help="exit 1 if docs/api.md is out of date")
-    args = parser.parse_args(argv)
     sys.path.insert(0, str(ROOT))
-    if args.check:
-        diff = check()
-        if diff:
-            sys.stdout.writelines(diff)
-            print(f"\n{DOCS.relative_to(ROOT)} is out of date: run python tools/api_docs.py")
-            return 1
-        print(f"{DOCS.relative_to(ROOT)} is up to date")
-        return 0
-    DOCS.parent.mkdir(parents=True, exist_ok=True)
-    DOCS.write_text(render(), encoding="utf-8")
-    print(f"wrote {DOCS.relative_to(ROOT)}")
-    return 0
+    return generated_page.main(argv, __doc__.splitlines()[0], ROOT, DOCS, render, "api_docs.py")
 
 
 if __name__ == "__main__":

@@ -29,8 +29,6 @@ bullet list of ``warp_sim.kernels.blocks``'s docstring, one ``- Name: ...`` item
 """
 from __future__ import annotations
 
-import argparse
-import difflib
 import importlib
 import inspect
 import pkgutil
@@ -38,6 +36,8 @@ import re
 import sys
 from pathlib import Path
 from typing import Any
+
+import generated_page  # tools/: beside this file (on sys.path when run as a script)
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs" / "kernels.md"
@@ -500,32 +500,15 @@ def render() -> str:
 
 def check(path: Path = DOCS) -> list[str]:
     """The unified diff from ``path`` to the page as generated now: empty when it is up to date."""
-    current = path.read_text(encoding="utf-8") if path.exists() else ""
-    expected = render()
-    return list(difflib.unified_diff(current.splitlines(keepends=True), expected.splitlines(keepends=True),
-                                     fromfile=str(path), tofile="generated"))
+    return generated_page.diff(path, render())
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--check", action="store_true", help="exit 1 if docs/kernels.md is out of date")
-    args = parser.parse_args(argv)
     sys.path.insert(0, str(ROOT))
     import warp as wp
 
     wp.config.quiet = True
-    if args.check:
-        diff = check()
-        if diff:
-            sys.stdout.writelines(diff)
-            print(f"\n{DOCS.relative_to(ROOT)} is out of date: run python tools/kernel_docs.py")
-            return 1
-        print(f"{DOCS.relative_to(ROOT)} is up to date")
-        return 0
-    DOCS.parent.mkdir(parents=True, exist_ok=True)
-    DOCS.write_text(render(), encoding="utf-8")
-    print(f"wrote {DOCS.relative_to(ROOT)}")
-    return 0
+    return generated_page.main(argv, __doc__.splitlines()[0], ROOT, DOCS, render, "kernel_docs.py")
 
 
 if __name__ == "__main__":

@@ -9,18 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import warp as wp
+from helpers import load_tool
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _load_generator():
-    spec = importlib.util.spec_from_file_location("kernel_docs", ROOT / "tools" / "kernel_docs.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-kernel_docs = _load_generator()
+kernel_docs = load_tool("kernel_docs")
 
 PUBLIC = {
     "integrate": ["axpy", "copy", "rk4_combine"],
