@@ -46,6 +46,7 @@ import numpy as np
 import trimesh
 
 from ..util import checks
+from .emitters import MAX_POOL_BYTES
 
 FAMILIES = ("structural", "shear", "bend")
 DEFAULT_CLOTH_DENSITY = 0.1     # [kg/m^2], a light cotton
@@ -55,6 +56,9 @@ DEGENERATE_AREA = 1e-12         # a face with area <= this x its longest edge sq
 PIN_NAMES = ("corners", "top_corners", "top", "bottom", "left", "right")
 DISTRIBUTIONS = ("uniform", "area", "volume")
 INTERNAL = ("two_ring", None)
+#: host bytes a grid vertex costs at the peak of add_cloth_grid (measured: 1.23 kB at 512 x 512: the topology, its
+#: six springs, the duplicate-spring check's sort), against the same 16 GiB bound as an emitter's pool
+GRID_VERTEX_BYTES = 1280
 
 
 @dataclass(frozen=True)
@@ -103,6 +107,12 @@ def grid_resolution(resolution) -> tuple[int, int]:
     nx, ny = (int(v) for v in values)
     if nx < 2 or ny < 2:
         raise checks.fail("resolution", resolution, "a cloth grid needs at least 2 x 2 vertices (one quad)")
+    if nx * ny * GRID_VERTEX_BYTES > MAX_POOL_BYTES:
+        raise checks.fail("resolution", resolution, f"the grid would hold {nx * ny:,} particles, about "
+                                                    f"{nx * ny * GRID_VERTEX_BYTES / 2**30:,.1f} GiB to build, above "
+                                                    f"the {MAX_POOL_BYTES // 2**30} GiB bound (at most "
+                                                    f"{MAX_POOL_BYTES // GRID_VERTEX_BYTES:,} vertices, e.g. 3600 x "
+                                                    "3600); lower the resolution")
     return nx, ny
 
 

@@ -5,10 +5,11 @@ import numpy as np
 
 from ..util import checks
 from ..util.rotations import quat_to_matrix
-from . import cloth, usd_reader, usd_writer
+from . import cloth, ranges, usd_reader, usd_writer
 from .emitters import make_emitter
 from .fields import Field
 from .parts import Collider, ParticleGroup, Plane, RigidBody, SurfaceMesh
+from .revisions import Revised, changes
 from .shapes import MassProperties, Shape
 from .tracks import Track
 
@@ -22,6 +23,12 @@ def _keys(kinematic) -> tuple:
     return tuple(kinematic)
 
 
+def _frozen(array: np.ndarray) -> np.ndarray:
+    """``array`` made read-only: a change goes through an attribute set, which counts in the scene's revision."""
+    array.setflags(write=False)
+    return array
+
+
 def _shape(shape) -> Shape:
     """``shape`` if it is a warp_sim Shape, else ValueError."""
     if not isinstance(shape, Shape):
@@ -29,7 +36,7 @@ def _shape(shape) -> Shape:
     return shape
 
 
-class Scene:
+class Scene(Revised):
     """What to simulate: particles, springs, rigid bodies, static colliders, planes, and the global forces.
 
     gravity: [m/s^2], (3,)
@@ -41,15 +48,21 @@ class Scene:
     usd_paths: for a scene read by ``from_usd``, each simulated prim's path -> (kind, index): "body" or "collider"
         and its index, "plane" and its plane index, "cloth" or "particles" and the particle ids; else empty
     usd_source: for such a scene, the stage it came from (scene.usd_reader.UsdSource), else None
+    revision: a count of its changes (add_* calls, attribute sets); a Simulator refuses to step a scene whose
+        revision moved since it was built
+
+    Every value must fit the precision, as must what a simulation derives from it (1/m, k/m, the inverse
+    inertia: ``scene.ranges``); in float32 a mass of 1e-300 kg or a stiffness of 1e39 N/m is refused where given.
     """
 
     def __init__(self, gravity=(0.0, -9.81, 0.0), precision: str = "float32", drag: float = 0.0,
                  wind=(0.0, 0.0, 0.0), angular_drag: float = 0.0):
-        self.gravity = checks.vec3("gravity", gravity)
         self.precision = checks.choice("precision", precision, PRECISIONS)
-        self.drag = checks.scalar("drag", drag, low=0.0)
-        self.angular_drag = checks.scalar("angular_drag", angular_drag, low=0.0)
-        self.wind = checks.vec3("wind", wind)
+        self.gravity = _frozen(checks.fits("gravity", checks.vec3("gravity", gravity), self.precision))
+        self.drag = float(checks.fits("drag", checks.scalar("drag", drag, low=0.0), self.precision))
+        self.angular_drag = float(checks.fits("angular_drag", checks.scalar("angular_drag", angular_drag, low=0.0),
+                                              self.precision))
+        self.wind = _frozen(checks.fits("wind", checks.vec3("wind", wind), self.precision))
         self.particle_groups: list[ParticleGroup] = []
         self.bodies: list[RigidBody] = []
         self._body_names: set[str] = set()      # unique-name checks stay O(1) for 10^5 bodies
@@ -88,6 +101,7 @@ class Scene:
             return np.concatenate(chunks)
         return np.zeros((0, 3) if key in ("position", "velocity") else 0)
 
+    @changes
     def add_particles(self, positions, velocities=None, mass=1.0, radius=0.01, pinned=None,
                       restitution=None, friction=None, name: str | None = None,
                       color=(0.9, 0.5, 0.1)) -> np.ndarray:
@@ -104,8 +118,9 @@ class Scene:
             raise checks.fail("positions", positions, "need at least one particle")
         v = np.zeros_like(x) if velocities is None else checks.fits(
             "velocities", checks.finite_array("velocities", velocities, (count, 3)), self.precision)
-        m = checks.fits("mass", checks.per_element("mass", mass, count, low=0.0, low_open=True), self.precision)
+        m = checks.per_element("mass", mass, count, low=0.0, low_open=True)
         r = checks.per_element("radius", radius, count, low=0.0)
+        ranges.particles(self.precision, mass, m, radius, r, self.drag)
         pin = np.zeros(count, dtype=bool)
         if pinned is not None:
             pin[checks.indices("pinned", pinned, count, (-1,))] = True
@@ -129,6 +144,7 @@ class Scene:
         return np.arange(start, start + count)
 
     # emitters ------------------------------------------------------------------
+    @changes
     def add_emitter(self, rate: float = 100.0, lifetime=2.0, position=(0.0, 0.0, 0.0), direction=(0.0, 1.0, 0.0),
                     spread: float = 15.0, speed=1.0, shape: str = "point", radius: float | None = None,
                     half_extents=None, mesh=None, size=0.01, mass=0.001, color=(1.0, 1.0, 1.0), opacity=1.0,
@@ -156,6 +172,7 @@ class Scene:
         emitter = make_emitter(len(self.emitters), self.particle_count, label, rate, lifetime, position, direction,
                                spread, speed, shape, radius, half_extents, mesh, size, mass, color, opacity,
                                bursts, start, stop, capacity, seed, kill_planes, kill_on_contact)
+        ranges.emitter(self.precision, emitter)
         n = emitter.capacity
         e = -1.0 if restitution is None else checks.scalar("restitution", restitution, low=0.0, high=1.0)
         mu = -1.0 if friction is None else checks.scalar("friction", friction, low=0.0)
@@ -178,6 +195,7 @@ class Scene:
             return np.concatenate(chunks)
         return np.zeros((0, 2), dtype=np.int64) if key == "pairs" else np.zeros(0)
 
+    @changes
     def add_springs(self, pairs, stiffness, damping=0.0, rest_length=None) -> np.ndarray:
         """Add damped springs between particle pairs; returns their global spring indices.
 
@@ -197,6 +215,8 @@ class Scene:
         self._refuse_duplicate_springs(pairs, p)
         ks = checks.per_element("stiffness", stiffness, count, low=0.0)
         kd = checks.per_element("damping", damping, count, low=0.0)
+        ranges.springs(self.precision, stiffness, ks, damping, kd, p, self.particle_array("mass"),
+                       self.particle_array("pinned"))
         if rest_length is None:
             x = self.particle_array("position")
             length = np.linalg.norm(x[p[:, 1]] - x[p[:, 0]], axis=1)
@@ -229,6 +249,7 @@ class Scene:
                                               f"joined by {where}; each pair may have one spring")
 
     # cloth and soft bodies -----------------------------------------------------
+    @changes
     def add_cloth_grid(self, resolution=(32, 32), size=(1.0, 1.0), position=(0.0, 0.0, 0.0),
                        orientation=(0.0, 0.0, 0.0, 1.0), mass: float | None = None, density: float | None = None,
                        stiffness=(1.0e4, 1.0e4, 1.0e3), damping=(1.0, 1.0, 0.1), pinned=(), velocity=(0.0, 0.0, 0.0),
@@ -265,6 +286,7 @@ class Scene:
                                 radius, restitution, friction, name, color, (drag, lift, air_density, max_stretch))
         return ids.reshape(ny, nx)
 
+    @changes
     def add_cloth_mesh(self, mesh, position=(0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0),
                        mass: float | None = None, density: float | None = None, stiffness=(1.0e4, 1.0e4, 1.0e3),
                        damping=(1.0, 1.0, 0.1), pinned=(), velocity=(0.0, 0.0, 0.0), drag: float = 0.0,
@@ -289,6 +311,7 @@ class Scene:
         return self._add_surface("cloth", topology, masses, pins, position, orientation, velocity, stiffness, damping,
                                  radius, restitution, friction, name, color, (drag, lift, air_density, max_stretch))
 
+    @changes
     def add_soft_mesh(self, mesh, mass: float = 1.0, stiffness: float = 1.0e4, damping: float = 1.0,
                       distribution: str = "uniform", internal: str | None = "two_ring",
                       internal_stiffness: float | None = None, internal_damping: float | None = None, pinned=(),
@@ -335,6 +358,9 @@ class Scene:
         pin = np.zeros(count, dtype=bool)
         pin[pins] = True
         r = checks.per_element("radius", radius, count, low=0.0)
+        checks.fits("position", x, self.precision, given=position, derived="vertex")
+        checks.fits("velocity", v, self.precision)
+        ranges.particles(self.precision, masses, masses, radius, r, self.drag)
         e = np.full(count, -1.0 if restitution is None else checks.scalar("restitution", restitution, 0.0, 1.0))
         mu = np.full(count, -1.0 if friction is None else checks.scalar("friction", friction, low=0.0))
         rgb = tuple(checks.unit_interval("color", color, (3,)))
@@ -366,6 +392,7 @@ class Scene:
     def body_count(self) -> int:
         return len(self.bodies)
 
+    @changes
     def add_rigid_body(self, shape: Shape, density: float | None = None, mass: float | None = None,
                        position=(0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0),
                        linear_velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0),
@@ -390,6 +417,10 @@ class Scene:
             raise checks.fail("mass_properties", mass_properties, "expected a MassProperties, without density or mass")
         properties = mass_properties or _shape(shape).mass_properties(density=density, mass=mass)
         _shape(shape)
+        drag = self.drag if drag is None else checks.scalar("drag", drag, low=0.0)
+        angular_drag = self.angular_drag if angular_drag is None else checks.scalar("angular_drag", angular_drag,
+                                                                                    low=0.0)
+        ranges.body(self.precision, properties, shape, drag, angular_drag)
         track = None if kinematic is None else Track.of(*_keys(kinematic), properties.com)
         if track is not None:
             position, orientation = track.pose(0.0)
@@ -404,12 +435,13 @@ class Scene:
             name=label, shape=shape, mass=properties,
             position=checks.fits("position", checks.vec3("position", position), self.precision) + R @ properties.com,
             orientation=q,
-            momentum=properties.mass * checks.fits("linear_velocity", checks.vec3("linear_velocity", linear_velocity),
-                                                   self.precision),
-            angular_momentum=inertia_world @ checks.vec3("angular_velocity", angular_velocity),
-            drag=self.drag if drag is None else checks.scalar("drag", drag, low=0.0),
-            angular_drag=self.angular_drag if angular_drag is None else checks.scalar(
-                "angular_drag", angular_drag, low=0.0),
+            momentum=checks.fits("linear_velocity", properties.mass * checks.fits(
+                "linear_velocity", checks.vec3("linear_velocity", linear_velocity), self.precision), self.precision,
+                given=linear_velocity, derived="momentum (mass x velocity)"),
+            angular_momentum=checks.fits("angular_velocity", inertia_world @ checks.fits(
+                "angular_velocity", checks.vec3("angular_velocity", angular_velocity), self.precision),
+                self.precision, given=angular_velocity, derived="angular momentum (I omega)"),
+            drag=drag, angular_drag=angular_drag,
             restitution=checks.scalar("restitution", restitution, low=0.0, high=1.0),
             friction=checks.scalar("friction", friction, low=0.0),
             color=tuple(checks.unit_interval("color", color, (3,))), track=track,
@@ -431,6 +463,7 @@ class Scene:
         return np.array(values, dtype=np.float64).reshape((-1, width) if width else (-1,))
 
     # static colliders ----------------------------------------------------------
+    @changes
     def add_collider(self, shape: Shape, position=(0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0),
                      restitution: float = 0.5, friction: float = 0.4, name: str | None = None,
                      color=(0.45, 0.45, 0.5)) -> int:
@@ -441,9 +474,10 @@ class Scene:
         (x, y, z, w), normalised with a warning if off unit length; restitution in [0, 1],
         friction >= 0; name (unique among colliders, default "collider<k>") and color (RGB 0..1) for USD.
         """
+        ranges.sized(self.precision, _shape(shape))
         collider = Collider(
             name=name or f"collider{len(self.colliders)}", shape=_shape(shape),
-            position=checks.vec3("position", position),
+            position=checks.fits("position", checks.vec3("position", position), self.precision),
             orientation=checks.unit_quaternion("orientation", orientation),
             restitution=checks.scalar("restitution", restitution, low=0.0, high=1.0),
             friction=checks.scalar("friction", friction, low=0.0),
@@ -457,6 +491,7 @@ class Scene:
         return len(self.colliders) - 1
 
     # force fields --------------------------------------------------------------
+    @changes
     def add_field(self, field) -> int:
         """Add a force field acting on every particle (ws.Attractor, ws.Vortex, ws.Turbulence);
         returns its index. Fields accelerate particles independently of their mass."""
@@ -466,6 +501,7 @@ class Scene:
         return len(self.fields) - 1
 
     # planes --------------------------------------------------------------------
+    @changes
     def add_plane(self, normal, offset: float = 0.0, restitution: float = 0.5, friction: float = 0.4,
                   name: str | None = None) -> int:
         """Add the static plane normal . x = offset [m]; returns its index.
@@ -476,7 +512,7 @@ class Scene:
         plane = Plane(
             name=name or f"Plane{len(self.planes)}",
             normal=checks.unit_vec3("normal", normal),
-            offset=checks.scalar("offset", offset),
+            offset=float(checks.fits("offset", checks.scalar("offset", offset), self.precision)),
             restitution=checks.scalar("restitution", restitution, low=0.0, high=1.0),
             friction=checks.scalar("friction", friction, low=0.0),
         )

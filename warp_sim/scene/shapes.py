@@ -21,13 +21,18 @@ DEFAULT_DENSITY = 1000.0  # [kg/m^3]
 SINGULAR_RATIO = 1e-12  # smallest / largest principal moment at or below which a body cannot rotate
 BOUND_SLACK = 1e-6  # relative round-off allowed before a mesh volume exceeds its enclosing volume
 DEGENERATE_RATIO = 1e-12  # twice a face's area / its longest edge^2 at or below which the face has zero area
+SYMMETRY_SLACK = 1e-9  # |I - I^T| / the largest |I| allowed as round-off of a symmetric inertia tensor
+TRIANGLE_SLACK = 1e-6  # I1 + I2 may fall this far (relative to I3) below I3: float32 rounding of a flat body's moments
 
 
 @dataclass(frozen=True, eq=False)
 class MassProperties:
     """Mass [kg], centre of mass (3,) [m] in the shape frame, inertia (3, 3) [kg m^2] about the centre of mass.
 
-    The arrays are read-only copies; the inertia tensor is symmetric, shape frame axes.
+    Checked when made (ValueError naming ``mass``, ``com`` or ``inertia``): a finite mass > 0, a finite centre,
+    and a finite, symmetric (to SYMMETRY_SLACK of its largest entry), positive-definite inertia whose principal
+    moments obey the triangle inequality I1 + I2 >= I3 (to TRIANGLE_SLACK of I3), as every real mass distribution's
+    do. The arrays are read-only copies; the inertia tensor is made exactly symmetric, shape frame axes.
     """
 
     mass: float
@@ -35,11 +40,34 @@ class MassProperties:
     inertia: np.ndarray
 
     def __post_init__(self):
-        for name in ("com", "inertia"):
-            array = np.array(getattr(self, name), dtype=np.float64)
+        object.__setattr__(self, "mass", checks.scalar("mass", self.mass, low=0.0, low_open=True))
+        com = checks.finite_array("com", self.com, (3,))
+        inertia = checks.finite_array("inertia", self.inertia, (3, 3))
+        _require_physical(inertia)
+        for name, array in (("com", com), ("inertia", (inertia + inertia.T) / 2.0)):
             array.setflags(write=False)
             object.__setattr__(self, name, array)
-        object.__setattr__(self, "mass", float(self.mass))
+
+
+def _require_physical(inertia: np.ndarray) -> None:
+    """Raise unless ``inertia`` [kg m^2] is symmetric, positive definite and obeys the triangle inequality."""
+    largest = float(np.max(np.abs(inertia)))
+    asymmetry = float(np.max(np.abs(inertia - inertia.T)))
+    if asymmetry > SYMMETRY_SLACK * largest:
+        raise checks.fail("inertia", inertia, f"an inertia tensor is symmetric; entries across the diagonal differ by "
+                                              f"up to {asymmetry:.6g} kg m^2")
+    moments = np.linalg.eigvalsh((inertia + inertia.T) / 2.0)
+    if not moments[0] > 0.0:
+        raise checks.fail("inertia", inertia, f"an inertia tensor is positive definite: every principal moment > 0 "
+                                              f"kg m^2, here {_moments(moments)}")
+    if moments[0] + moments[1] < moments[2] * (1.0 - TRIANGLE_SLACK):
+        raise checks.fail("inertia", inertia, f"its principal moments {_moments(moments)} break the triangle "
+                                              f"inequality I1 + I2 >= I3 ({moments[0] + moments[1]:.6g} < "
+                                              f"{moments[2]:.6g}), which every real mass distribution obeys")
+
+
+def _moments(moments) -> str:
+    return "(" + ", ".join(f"{m:.6g}" for m in moments) + ")"
 
 
 def _require_rotatable(name: str, value, inertia: np.ndarray) -> None:
@@ -79,6 +107,18 @@ class Shape:
         """The radius [m] of the sphere about the centre of mass that encloses the whole shape."""
         raise NotImplementedError
 
+    def _require_finite(self, name: str, value) -> None:
+        """Refuse a size whose volume or inertia (at density 1) overflows or vanishes in float64 (a radius of
+        1e300 m, or of 1e-200 m)."""
+        try:
+            unit = self._unit_properties()
+            finite = math.isfinite(unit.mass) and bool(np.all(np.isfinite(unit.inertia)))
+        except (OverflowError, ValueError):
+            finite = False
+        if not finite:
+            raise checks.fail(name, value, "out of range: the shape's volume or inertia would overflow or vanish "
+                                           "in float64 (sizes from about 1e-60 to 1e60 m)")
+
     def mass_properties(self, density: float | None = None, mass: float | None = None) -> MassProperties:
         """Mass properties for a uniform ``density`` [kg/m^3] or a total ``mass`` [kg]; default density 1000."""
         if density is not None and mass is not None:
@@ -87,9 +127,8 @@ class Shape:
         unit = self._unit_properties()
         scale = self._scale(density, mass)
         total = float(mass) if mass is not None else unit.mass * scale
-        result = MassProperties(total, unit.com, unit.inertia * scale)
-        _require_rotatable("inertia", result.inertia, result.inertia)
-        return result
+        _require_rotatable("inertia", unit.inertia * scale, unit.inertia * scale)
+        return MassProperties(total, unit.com, unit.inertia * scale)
 
 
 def _solid(volume: float, diagonal) -> MassProperties:
@@ -105,6 +144,7 @@ class Sphere(Shape):
     def __init__(self, radius: float):
         self.radius = checks.scalar("radius", radius, low=0.0, low_open=True)
         self.size = (self.radius,)
+        self._require_finite("radius", radius)
 
     def _unit_properties(self) -> MassProperties:
         r = self.radius
@@ -128,6 +168,7 @@ class Box(Shape):
         self.half_extents = checks.per_element("half_extents", half_extents, 3, 0.0, low_open=True)
         self.half_extents.setflags(write=False)
         self.size = tuple(float(a) for a in self.half_extents)
+        self._require_finite("half_extents", half_extents)
 
     def _unit_properties(self) -> MassProperties:
         a, b, c = self.size
@@ -152,6 +193,7 @@ class Cylinder(Shape):
         self.radius = checks.scalar("radius", radius, low=0.0, low_open=True)
         self.half_height = checks.scalar("half_height", half_height, low=0.0, low_open=True)
         self.size = (self.radius, self.half_height)
+        self._require_finite("radius, half_height", (radius, half_height))
 
     def _unit_properties(self) -> MassProperties:
         r, h = self.size
@@ -181,6 +223,7 @@ class Capsule(Shape):
         self.radius = checks.scalar("radius", radius, low=0.0, low_open=True)
         self.half_height = checks.scalar("half_height", half_height, low=0.0)
         self.size = (self.radius, self.half_height)
+        self._require_finite("radius, half_height", (radius, half_height))
 
     def _unit_properties(self) -> MassProperties:
         r, h = self.size
@@ -251,8 +294,8 @@ class MeshShape(Shape):
             return
         self._check_closed(mesh)
         unit = trimesh.triangles.mass_properties(self.mesh.triangles, density=1.0)
+        self._check_volume(mesh, float(unit.volume), np.asarray(unit.center_mass), np.asarray(unit.inertia))
         self._unit = MassProperties(unit.volume, unit.center_mass, unit.inertia)
-        self._check_volume(mesh)
 
     def _check_faces(self, original) -> None:
         """Reject zero-area faces (coincident or collinear corners, to round-off): a surface has no normal there."""
@@ -283,8 +326,8 @@ class MeshShape(Shape):
             raise checks.fail("mesh", original, "the face winding is inconsistent (neighbouring faces point opposite "
                               "ways), so the volume would be wrong; fix it with trimesh.repair.fix_winding(mesh)")
 
-    def _check_volume(self, original) -> None:
-        volume = self._unit.mass
+    def _check_volume(self, original, volume: float, com: np.ndarray, inertia: np.ndarray) -> None:
+        """Refuse a solid whose unit-density volume [m^3], centre [m] and inertia [m^5] no closed surface has."""
         if volume < 0.0:
             raise checks.fail("mesh", original, f"the mesh is inside out (signed volume {volume:.6g} m^3 < 0: the face "
                               "normals point inwards); fix it with mesh.invert() or trimesh.repair.fix_normals(mesh)")
@@ -294,8 +337,8 @@ class MeshShape(Shape):
         if not self.mesh.is_volume:
             raise checks.fail("mesh", original, "trimesh does not consider it a solid volume (mesh.is_volume is "
                               "False); repair it (trimesh.repair, or in a modeller)")
-        _require_rotatable("mesh", original, self._unit.inertia)
-        bound = _enclosing_volume(self.vertices - self._unit.com, np.linalg.eigh(self._unit.inertia)[1])
+        _require_rotatable("mesh", original, inertia)
+        bound = _enclosing_volume(self.vertices - com, np.linalg.eigh(inertia)[1])
         if volume > bound * (1.0 + BOUND_SLACK):
             raise checks.fail("mesh", original, f"the signed volume {volume:.6g} m^3 exceeds the {bound:.6g} m^3 of a "
                               "box around its vertices, impossible for a closed surface that does not cross "
@@ -365,8 +408,8 @@ class PointMasses(Shape):
         r = self.positions - com
         inertia = np.eye(3) * np.sum(self.masses * np.sum(r * r, axis=1)) - (self.masses[:, None] * r).T @ r
         inertia = (inertia + inertia.T) / 2.0  # exactly symmetric despite round-off in the products
-        self._unit = MassProperties(total, com, inertia)
         _require_rotatable("positions", positions, inertia)
+        self._unit = MassProperties(total, com, inertia)
 
     def _unit_properties(self) -> MassProperties:
         """The properties of the masses as given."""

@@ -10,6 +10,8 @@ import numpy as np
 import trimesh
 from pxr import Sdf, UsdGeom
 
+from . import usd_values
+
 CLOTH, PARTICLES, EMITTER = "warpSim:cloth", "warpSim:particles", "warpSim:emitter"
 # name -> (Sdf type, the add_* keyword it feeds)
 CLOTH_ATTRIBUTES = {"warpSim:mass": (Sdf.ValueTypeNames.Float, "mass"),
@@ -37,9 +39,9 @@ EMITTER_ATTRIBUTES = {"warpSim:rate": (Sdf.ValueTypeNames.Float, "rate"),
 
 
 def triangles(mesh, time) -> np.ndarray:
-    """A UsdGeom.Mesh's faces as triangles (each polygon a fan from its first corner), (F, 3)."""
-    counts = np.array(mesh.GetFaceVertexCountsAttr().Get(time), dtype=np.int64)
-    indices = np.array(mesh.GetFaceVertexIndicesAttr().Get(time), dtype=np.int64)
+    """A UsdGeom.Mesh's faces as triangles (each polygon a fan from its first corner), (F, 3); its points and faces
+    checked first (usd_values.mesh_faces: a ValueError naming the prim and the attribute)."""
+    _, counts, indices = usd_values.mesh_faces(mesh.GetPrim(), time)
     faces, start = [], 0
     for count in counts:
         ring = indices[start:start + count]
@@ -75,39 +77,71 @@ def _world_points(prim, points, time, units) -> np.ndarray:
     return units.point((homogeneous @ world)[:, :3])
 
 
+def _names(attributes: dict) -> dict:
+    """add_* keyword -> the warpSim attribute that feeds it, for errors in the stage's terms."""
+    return {keyword: name for name, (_, keyword) in attributes.items()}
+
+
 def read(scene, stage, time, units, link) -> None:
     """Add every warpSim cloth mesh, particle set and emitter of ``stage`` to ``scene``; ``link(path, kind, index)``
-    records each."""
+    records each. A bad value is a ValueError naming the prim and the attribute (usd_values)."""
     for prim in stage.Traverse():
+        path = prim.GetPath()
         if prim.IsA(UsdGeom.Mesh) and _flag(prim, CLOTH):
+            usd_values.transform(prim, time, rigid=False)
             mesh = UsdGeom.Mesh(prim)
             faces = triangles(mesh, time)
             vertices = _world_points(prim, mesh.GetPointsAttr().Get(time), time, units)
             options = _values(prim, CLOTH_ATTRIBUTES, time)
-            ids = scene.add_cloth_mesh(trimesh.Trimesh(vertices, faces, process=False),
-                                       name=_name(scene, prim), **options)
-            link(str(prim.GetPath()), "cloth", ids)
+            with usd_values.named(path, {**_names(CLOTH_ATTRIBUTES), "mesh": "points"}):
+                ids = scene.add_cloth_mesh(trimesh.Trimesh(vertices, faces, process=False),
+                                           name=_name(scene, prim), **options)
+            link(str(path), "cloth", ids)
         elif prim.IsA(UsdGeom.Points) and _flag(prim, PARTICLES):
-            points = UsdGeom.Points(prim)
-            positions = _world_points(prim, points.GetPointsAttr().Get(time), time, units)
-            velocities = points.GetVelocitiesAttr().Get(time)
-            velocities = None if not velocities else units.direction(np.array(velocities)) * units.meters_per_unit
-            widths = points.GetWidthsAttr().Get(time)
-            options = _values(prim, PARTICLE_ATTRIBUTES, time)
-            if "mass" in options and len(options["mass"]) == 1:
-                options["mass"] = options["mass"][0]
-            radius = 0.01 if not widths else units.length(np.array(widths, dtype=np.float64)) / 2.0
-            if np.ndim(radius) and len(radius) == 1:
-                radius = float(radius[0])
-            ids = scene.add_particles(positions, velocities, radius=radius, name=_name(scene, prim), **options)
-            link(str(prim.GetPath()), "particles", ids)
+            _particles(scene, prim, time, units, link)
         elif prim.IsA(UsdGeom.Xformable) and _flag(prim, EMITTER):
+            usd_values.transform(prim, time, rigid=False)
             world = np.array(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(time), dtype=np.float64)
             direction = units.direction(world[1, :3] / np.linalg.norm(world[1, :3]))   # the prim's +Y
-            emitter = scene.add_emitter(position=units.point(world[3, :3]), direction=direction,
-                                        name=_name(scene, prim), **_values(prim, EMITTER_ATTRIBUTES, time))
-            link(str(prim.GetPath()), "particles", np.arange(emitter.start_slot, emitter.start_slot + emitter.capacity),
+            with usd_values.named(path, {**_names(EMITTER_ATTRIBUTES), "position": "xformOp:translate"}):
+                emitter = scene.add_emitter(position=units.point(world[3, :3]), direction=direction,
+                                            name=_name(scene, prim), **_values(prim, EMITTER_ATTRIBUTES, time))
+            link(str(path), "particles", np.arange(emitter.start_slot, emitter.start_slot + emitter.capacity),
                  pooled=True)
+
+
+def _particles(scene, prim, time, units, link) -> None:
+    """A warpSim:particles Points prim: at least one finite point; velocities one per point, widths [stage units]
+    one or one per point (radius = width / 2, default 0.01 m), all finite and widths >= 0."""
+    path = prim.GetPath()
+    usd_values.transform(prim, time, rigid=False)
+    points = UsdGeom.Points(prim)
+    authored = points.GetPointsAttr().Get(time)
+    if not authored:
+        raise usd_values.error(path, "points", authored, "a warpSim:particles Points prim needs at least one point")
+    count = len(authored)
+    with usd_values.named(path, {"positions": "points"}):
+        positions = _world_points(prim, usd_values.counts(path, "points", authored, count, "one"), time, units)
+    velocities = points.GetVelocitiesAttr().Get(time)
+    if velocities:
+        velocities = usd_values.counts(path, "velocities", velocities, count, "one")
+        velocities = units.direction(velocities) * units.meters_per_unit
+    else:
+        velocities = None
+    widths = points.GetWidthsAttr().Get(time)
+    radius = 0.01
+    if widths:
+        radius = units.length(usd_values.counts(path, "widths", widths, count, "one or each")) / 2.0
+        if np.any(radius < 0.0):
+            raise usd_values.error(path, "widths", widths, "every width must be >= 0 [stage units]")
+        radius = float(radius[0]) if len(radius) == 1 else radius
+    options = _values(prim, PARTICLE_ATTRIBUTES, time)
+    if "mass" in options and np.ndim(options["mass"]) == 1 and len(options["mass"]) == 1:
+        options["mass"] = options["mass"][0]
+    with usd_values.named(path, {**_names(PARTICLE_ATTRIBUTES), "positions": "points", "velocities": "velocities",
+                                 "radius": "widths"}):
+        ids = scene.add_particles(positions, velocities, radius=radius, name=_name(scene, prim), **options)
+    link(str(path), "particles", ids)
 
 
 def unique(name: str, existing) -> str:

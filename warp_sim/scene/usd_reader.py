@@ -19,7 +19,7 @@ from pxr import Gf, Usd, UsdGeom, UsdPhysics
 
 from ..util import checks
 from ..util.rotations import matrix_to_quat
-from . import usd_attributes
+from . import usd_attributes, usd_values
 from .shapes import Box, Capsule, Cylinder, MassProperties, MeshShape, Sphere
 from .usd_units import StageUnits
 
@@ -90,8 +90,8 @@ class _Reader:
         self.stage, self.file = _open(source)
         self.time = Usd.TimeCode.Default() if time is None else Usd.TimeCode(time)
         stage = self.stage
-        self.units = StageUnits(UsdGeom.GetStageMetersPerUnit(stage), UsdPhysics.GetStageKilogramsPerUnit(stage),
-                                str(UsdGeom.GetStageUpAxis(stage)))
+        self.precision = checks.choice("precision", precision, tuple(checks.LARGEST))
+        self.units = usd_values.stage_units(stage, self._name())
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DeprecationWarning)   # the new name takes other arguments
             parsed = UsdPhysics.LoadUsdPhysicsFromRange(stage, ["/"])
@@ -110,7 +110,8 @@ class _Reader:
             warnings.warn(f"{self._name()}: no UsdPhysics.Scene, so Earth's gravity ({EARTH_GRAVITY} m/s^2) acts "
                           "against the up axis", UserWarning, stacklevel=4)
             return np.array([0.0, -EARTH_GRAVITY, 0.0])
-        desc = next(iter(scenes.values()))
+        path, desc = next(iter(scenes.items()))
+        usd_values.gravity(self.stage.GetPrimAtPath(path), self.units, self.precision)
         return self.units.direction(_vec(desc.gravityDirection)) * self.units.length(desc.gravityMagnitude)
 
     def _name(self) -> str:
@@ -121,18 +122,28 @@ class _Reader:
         """(warp_sim shape, its frame in the body's or world's frame (R, p [m])) of a shape desc, or None."""
         u = self.units
         R, p = _rotation(desc.localRot), u.length(_vec(desc.localPos))
-        if kind == "CubeShape":
-            return Box(u.length(_vec(desc.halfExtents))), R, p
-        if kind == "SphereShape":
-            return Sphere(float(u.length(desc.radius))), R, p
-        if kind in ("CapsuleShape", "CylinderShape"):
-            make = Capsule if kind == "CapsuleShape" else Cylinder
-            return (make(float(u.length(desc.radius)), float(u.length(desc.halfHeight))),
-                    R @ AXIS_ROTATIONS[str(desc.axis).rsplit(".", 1)[-1]], p)
-        if kind == "MeshShape":
-            mesh = _mesh(self.stage.GetPrimAtPath(prim_path), self.time, u.length(_vec(desc.meshScale)))
-            return mesh, R, p
+        # sizes are the magnitudes: the values were checked (usd_values), and the sign of an even number of negative
+        # scales (a turn by 180 degrees, no mirror) is in the prim's rotation already
+        with usd_values.named(prim_path):
+            if kind == "CubeShape":
+                return Box(u.length(np.abs(_vec(desc.halfExtents)))), R, p
+            if kind == "SphereShape":
+                return Sphere(float(u.length(abs(desc.radius)))), R, p
+            if kind in ("CapsuleShape", "CylinderShape"):
+                make = Capsule if kind == "CapsuleShape" else Cylinder
+                return (make(float(u.length(abs(desc.radius))), float(u.length(abs(desc.halfHeight)))),
+                        R @ AXIS_ROTATIONS[str(desc.axis).rsplit(".", 1)[-1]], p)
+            if kind == "MeshShape":
+                mesh = _mesh(self.stage.GetPrimAtPath(prim_path), self.time, u.length(np.abs(_vec(desc.meshScale))))
+                return mesh, R, p
         return None
+
+    def _check_shape(self, path: str) -> None:
+        """A body's or collider's shape prim: its transform (not mirrored), its own attributes and its MassAPI."""
+        prim = self.stage.GetPrimAtPath(path)
+        usd_values.transform(prim, self.time, rigid=True)
+        usd_values.shape(prim, self.time)
+        usd_values.mass(prim, self.time)
 
     def _material(self, desc) -> tuple[float, float, float | None]:
         """(restitution, friction, density [kg/m^3] or None) of a shape's bound physics material."""
@@ -140,6 +151,7 @@ class _Reader:
         for path in desc.materials:
             material = materials.get(str(path))
             if material is not None:
+                usd_values.material(self.stage.GetPrimAtPath(path))
                 if material.staticFriction != material.dynamicFriction and not self.friction_warned:
                     self.friction_warned = True
                     warnings.warn(f"{self._name()}: material {path} has staticFriction {material.staticFriction:g} "
@@ -171,6 +183,12 @@ class _Reader:
         if not enabled:
             self.skipped.setdefault("rigid bodies without an enabled collision shape", []).append(path)
             return
+        prim = self.stage.GetPrimAtPath(path)
+        usd_values.transform(prim, self.time, rigid=True)
+        usd_values.body(prim, self.time)
+        usd_values.mass(prim, self.time)
+        for shape_path, _, _ in parts:
+            self._check_shape(shape_path)
         built = {}
         for shape_path, kind, shape_desc in parts:
             made = self._shape(kind, shape_desc, shape_path)
@@ -180,7 +198,6 @@ class _Reader:
                 return
             built[shape_path] = made
         restitution, friction, _ = self._material(enabled[0][2])
-        prim = self.stage.GetPrimAtPath(path)
         mass, diagonal, com, axes = UsdPhysics.RigidBodyAPI(prim).ComputeMassProperties(
             lambda shape_prim: self._mass_information(built.get(str(shape_prim.GetPath()))))
         if mass <= 0.0:
@@ -194,7 +211,8 @@ class _Reader:
         P = _rotation(axes)
         inertia_body = P @ np.diag(u.inertia(_vec(diagonal))) @ P.T
         com_body = u.length(_vec(com))
-        properties = MassProperties(u.mass(mass), Rs.T @ (com_body - ps), Rs.T @ inertia_body @ Rs)
+        with usd_values.named(path):   # the body's mass properties, from its MassAPI and its shapes'
+            properties = MassProperties(u.mass(mass), Rs.T @ (com_body - ps), Rs.T @ inertia_body @ Rs)
         rotation, position = _rigid(_matrix(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(self.time)))
         R_world = u.rotation(rotation)             # from the prim's xform in double (the desc's pose is float)
         origin = u.point(position) + R_world @ ps
@@ -203,11 +221,13 @@ class _Reader:
         velocity = to_world @ _vec(desc.linearVelocity) * u.meters_per_unit
         spin = to_world @ np.radians(_vec(desc.angularVelocity))
         track = self._track(prim, Rs, ps) if desc.kinematicBody else None
-        index = self.scene.add_rigid_body(shape, mass_properties=properties, position=origin,
-                                          orientation=matrix_to_quat(R_world @ Rs), linear_velocity=velocity,
-                                          angular_velocity=spin, restitution=restitution, friction=friction,
-                                          name=usd_attributes.unique(prim.GetName(), self.scene.bodies),
-                                          kinematic=track)
+        with usd_values.named(path, {"position": "xformOp:translate", "linear_velocity": "physics:velocity",
+                                     "angular_velocity": "physics:angularVelocity"}):
+            index = self.scene.add_rigid_body(shape, mass_properties=properties, position=origin,
+                                              orientation=matrix_to_quat(R_world @ Rs), linear_velocity=velocity,
+                                              angular_velocity=spin, restitution=restitution, friction=friction,
+                                              name=usd_attributes.unique(prim.GetName(), self.scene.bodies),
+                                              kinematic=track)
         self._link(path, "body", index, offset=(Rs, ps), kinematic=desc.kinematicBody)
 
     def _track(self, prim, Rs, ps) -> tuple:
@@ -222,6 +242,7 @@ class _Reader:
         keys, positions, orientations = [], [], []
         xformable = UsdGeom.Xformable(prim)
         for code in codes:
+            usd_values.transform(prim, Usd.TimeCode(code), rigid=True, when=f" at time code {code:g}")
             rotation, position = _rigid(_matrix(xformable.ComputeLocalToWorldTransform(Usd.TimeCode(code))))
             R = self.units.rotation(rotation)
             keys.append((code - self.source.start_time_code) / self.source.time_codes_per_second)
@@ -254,6 +275,7 @@ class _Reader:
 
     def _collider(self, path: str, kind: str, desc, body=None) -> None:
         u = self.units
+        self._check_shape(path)
         restitution, friction, _ = self._material(desc)
         R_body = np.eye(3) if body is None else _rotation(body.rotation)
         p_body = np.zeros(3) if body is None else _vec(body.position)
@@ -262,9 +284,10 @@ class _Reader:
             normal_stage = R_body @ _rotation(desc.localRot)[:, "XYZ".index(axis)]
             point = u.point(p_body + R_body @ _vec(desc.localPos))
             normal = u.direction(normal_stage)
-            index = self.scene.add_plane(normal, float(normal @ point), restitution, friction,
-                                         name=usd_attributes.unique(self.stage.GetPrimAtPath(path).GetName(),
-                                                                self.scene.planes))
+            with usd_values.named(path, {"offset": "xformOp:translate"}):
+                index = self.scene.add_plane(normal, float(normal @ point), restitution, friction,
+                                             name=usd_attributes.unique(self.stage.GetPrimAtPath(path).GetName(),
+                                                                        self.scene.planes))
             self._link(path, "plane", index)
             return
         made = self._shape(kind, desc, path)
@@ -275,10 +298,11 @@ class _Reader:
             Rs, ps = u.rotation(R_body) @ Rs, u.point(p_body) + u.rotation(R_body) @ ps
         else:   # the shape's frame is in the stage's world: turn it to warp_sim's axes (its length already scaled)
             Rs, ps = u.rotation(Rs), u.C @ ps
-        index = self.scene.add_collider(shape, position=ps, orientation=matrix_to_quat(Rs), restitution=restitution,
-                                        friction=friction,
-                                        name=usd_attributes.unique(self.stage.GetPrimAtPath(path).GetName(),
-                                                               self.scene.colliders))
+        with usd_values.named(path, {"position": "xformOp:translate"}):
+            index = self.scene.add_collider(shape, position=ps, orientation=matrix_to_quat(Rs),
+                                            restitution=restitution, friction=friction,
+                                            name=usd_attributes.unique(self.stage.GetPrimAtPath(path).GetName(),
+                                                                       self.scene.colliders))
         self._link(path, "collider", index)
 
     # ---- everything else ----------------------------------------------------------------------------------------

@@ -15,6 +15,7 @@ def _show(value) -> str:
         text = np.array2string(np.asarray(value), threshold=6, edgeitems=2) if np.ndim(value) else repr(value)
     except ValueError:   # ragged: not an array
         text = repr(value)
+    text = " ".join(text.split())   # one line: a matrix's rows side by side
     return text if len(text) <= 120 else text[:117] + "..."
 
 
@@ -22,14 +23,34 @@ def _show(value) -> str:
 LARGEST = {"float32": float(np.finfo(np.float32).max), "float64": float(np.finfo(np.float64).max)}
 
 
-def fits(name: str, array, precision: str) -> np.ndarray:
-    """``array`` (numbers), refused when an entry does not fit the scene's precision (float32 ends at 3.4e38)."""
+def fits(name: str, array, precision: str, given=None, derived: str | None = None) -> np.ndarray:
+    """``array`` (numbers), refused when an entry does not fit the scene's precision (float32 ends at 3.4e38).
+
+    given: the argument as the user gave it, shown in the error (default ``array``); derived: what ``array`` is
+    when it is computed from the argument (``"1/mass"``, ``"stiffness/mass"``), named in the error."""
     values = np.asarray(array, dtype=np.float64)
-    bad = np.argwhere(np.abs(values) > LARGEST[precision])
+    with np.errstate(invalid="ignore"):
+        bad = np.argwhere(~(np.abs(values) <= LARGEST[precision]))
     if len(bad):
         where = tuple(int(j) for j in bad[0])
-        raise fail(name, array, f"entry {where} is {values[where]:g}, which does not fit the scene's precision "
-                                f"{precision} (largest {LARGEST[precision]:.3g})")
+        at = where[0] if len(where) == 1 else where
+        if derived is None:
+            shown = f"entry {at}" if values.ndim else "it"
+        else:
+            shown = f"{derived}[{', '.join(str(j) for j in where)}]" if values.ndim else derived
+        raise fail(name, array if given is None else given,
+                   f"{shown} is {values[where]:g}, which does not fit the scene's precision {precision} (largest "
+                   f"{LARGEST[precision]:.3g})" + ("" if precision == "float64" else "; or use precision float64"))
+    return values
+
+
+def reciprocal_fits(name: str, array, precision: str, given=None, derived: str | None = None) -> np.ndarray:
+    """``array`` (numbers > 0), refused when the reciprocal of an entry does not fit the precision (a mass of
+    1e-300 kg: 1/m = 1e300 is infinite in float32); ``derived`` names the reciprocal (default ``"1/<name>"``)."""
+    values = np.asarray(array, dtype=np.float64)
+    with np.errstate(divide="ignore", over="ignore"):
+        inverse = np.where(values > 0.0, 1.0 / np.where(values > 0.0, values, 1.0), 0.0)
+    fits(name, inverse, precision, given=array if given is None else given, derived=derived or f"1/{name}")
     return values
 
 
@@ -38,21 +59,48 @@ def fail(name: str, value, valid: str) -> ValueError:
     return ValueError(f"{name}={_show(value)} is invalid: {valid}")
 
 
+def _as_numbers(name: str, value, what: str) -> np.ndarray:
+    """``value`` as a float64 array, or the ValueError saying why it is not real numbers (text, booleans, a ragged
+    list, complex numbers, None, dates)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise fail(name, value, f"{what}, not booleans or text")
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError):   # numpy refuses a ragged list
+        raise fail(name, value, f"{what}; its rows have different lengths (a ragged list)") from None
+    if raw.dtype.kind == "O":
+        flat = list(raw.flat)
+        if any(item is None for item in flat):
+            raise fail(name, value, f"{what}; an entry is None, not a number")
+        if any(isinstance(item, (list, tuple, np.ndarray)) for item in flat):
+            raise fail(name, value, f"{what}; its rows have different lengths (a ragged list)")
+        if any(isinstance(item, (complex, np.complexfloating)) for item in flat):
+            raise fail(name, value, f"{what}; complex numbers have no place here (real numbers only)")
+    kind = raw.dtype.kind
+    if kind in "bUS":
+        raise fail(name, value, f"{what}, not booleans or text")
+    if kind == "c":
+        raise fail(name, value, f"{what}; complex numbers have no place here (real numbers only)")
+    if kind in "mMV":
+        raise fail(name, value, f"{what}, not {raw.dtype}")
+    try:
+        return np.array(raw, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise fail(name, value, what) from None
+
+
 def finite_array(name: str, value, shape: tuple) -> np.ndarray:
     """A float64 copy of `value` with the given shape (-1 = any length), all finite."""
-    if isinstance(value, (bool, np.bool_, str, bytes)) or np.asarray(value).dtype.kind in "bUS":
-        raise fail(name, value, f"expected numbers in an array of shape {shape}, not booleans or text")
-    try:
-        array = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise fail(name, value, f"expected numbers in an array of shape {shape}") from None
+    shown = tuple("N" if s == -1 else s for s in shape)
+    shown = f"({shown[0]},)" if len(shown) == 1 else "(" + ", ".join(str(s) for s in shown) + ")"
+    array = _as_numbers(name, value, f"expected real numbers in an array of shape {shown}")
     if array.ndim != len(shape) or any(s != -1 and s != n for s, n in zip(shape, array.shape)):
-        shown = tuple("N" if s == -1 else s for s in shape)
         raise fail(name, value, f"expected shape {shown}, got {array.shape}")
     bad = np.argwhere(~np.isfinite(array))
     if len(bad):
         where = tuple(int(j) for j in bad[0])
-        raise fail(name, value, f"every entry must be finite; entry {where} is {array[where]}")
+        raise fail(name, value, f"every entry must be finite; entry {where[0] if len(where) == 1 else where} is "
+                                f"{array[where]}")
     return array
 
 
