@@ -540,3 +540,13 @@ def test_bad_cloth_mesh_arguments_rejected(kwargs, name):
     with pytest.raises(ValueError, match=rf"^{name}="):
         scene.add_cloth_mesh(open_sheet(), **kwargs)
     assert (scene.particle_count, scene.spring_count, scene.meshes) == (0, 0, [])
+
+
+def test_a_huge_resolution_is_refused_by_its_size_before_allocation():
+    """As an emitter's pool is: (100000, 100000) is 1e10 vertices, about 11,921 GiB to build, above the 16 GiB bound
+    (cloth.GRID_VERTEX_BYTES a vertex at the peak of add_cloth_grid); nothing is allocated (it returns at once)."""
+    scene = ws.Scene()
+    with pytest.raises(ValueError, match=r"^resolution=\[100000 100000\] is invalid: the grid would hold "
+                                         r"10,000,000,000 particles, about 11,920.9 GiB to build, above the 16 GiB"):
+        scene.add_cloth_grid(resolution=(100000, 100000))
+    assert scene.particle_count == 0
