@@ -1,9 +1,6 @@
 """Simulator: the loop. Each step: the solver, then the passes in order, then the guard; frames() and run()."""
 from __future__ import annotations
 
-import contextlib
-import signal
-import threading
 import warnings
 
 import numpy as np
@@ -24,6 +21,7 @@ from .stages import StageWriter, stage_layout
 from .stages.overlay import Overlay
 from .util import checks
 from .util.fingerprint import fingerprint
+from .util.interrupts import RunInterrupted, interruptions, raise_pending  # noqa: F401 (RunInterrupted: public here)
 from .util.progress import tqdm
 from .util.version import __version__
 
@@ -123,6 +121,7 @@ class Simulator(Persistent):
                              contact_margin=margin, collisions=collisions, contact_step=contact_step, fused=fused,
                              capture=capture)
         self.scene = scene
+        self._scene_revision = scene.revision   # a scene changed after this is refused (scene.revisions)
         self.model = parts.model
         if self.model.device.is_cpu:
             self.model.launcher.pool = CpuPool.shared(threads)
@@ -252,6 +251,7 @@ class Simulator(Persistent):
         substeps: "auto" splits each step into ``sim.substeps(dt)`` equal pieces, as many as the scene's stability
         (``sim.step_limit``) and the contact step need; a count n takes n equal pieces (each split further only
         by contact_step), and warns once if they are longer than the stable step."""
+        self.scene.require(self._scene_revision)
         h = checks.scalar("dt", dt, low=0.0, low_open=True)
         substeps = checks.substeps("substeps", substeps)
         for _ in range(checks.count("steps", steps)):
@@ -361,6 +361,7 @@ class Simulator(Persistent):
         the simulator's time then [s]; arrays are frame_arrays() (None with arrays=False: nothing is copied
         to the host). The guards are read at every frame, so a divergence raises SimulationDiverged before
         its frame is yielded."""
+        self.scene.require(self._scene_revision)
         frames, fps, substeps = _frame_arguments(seconds, fps, substeps)
         if not isinstance(arrays, bool):
             raise checks.fail("arrays", arrays, "expected True or False")
@@ -370,6 +371,7 @@ class Simulator(Persistent):
                     start_time: float | None = None):
         """Frames ``first`` to ``frames - 1`` of a run that started at ``start_time`` (default: now, from frame 0;
         a resumed run's state is that of frame ``first - 1``)."""
+        self.scene.require(self._scene_revision)   # run() too
         steps, h, split = (1, 1.0 / fps, "auto") if substeps == "auto" else (substeps, 1.0 / (fps * substeps), 1)
         asked = None if substeps == "auto" else (substeps, 1.0 / fps)
         start_time = self.time if start_time is None else start_time
@@ -446,8 +448,11 @@ class Simulator(Persistent):
                               persistence.settings(self.integrator), [total, fps, substeps, chunk_frames],
                               None if over is None else [str(over), flatten])
             overlay = None if over is None else Overlay(self.scene.usd_source, over, self.scene.bodies, flatten)
+            source = self.scene.usd_source.path if self.scene.usd_source is not None else None
+            reads = [] if source is None else [(f"the stage the scene was read from ({source!r})", source)]
+            raise_pending()   # a signal a library swallowed: before the output is touched
             writer = StageWriter(usd, fps, stage_layout(self.scene) if overlay is None else None, chunk_frames,
-                                 key=key, resume=resume, overlay=overlay)
+                                 key=key, resume=resume, overlay=overlay, reads=reads)
             if writer.resumed is not None:
                 arrays, meta = writer.resumed
                 values = dict(meta["values"])
@@ -455,16 +460,19 @@ class Simulator(Persistent):
                 persistence.restore(self, arrays, values)
                 first = writer.frames_written
         try:
-            with interruptions(), tqdm(total=total, initial=first, unit="frame", disable=None if progress else True,
-                                       desc="simulating") as bar:
-                for frame, _, arrays in self._frame_loop(total, fps, substeps, usd is not None, first, start_time):
-                    if writer is not None:
-                        self._refuse_unwritable(frame, arrays)
-                        if writer.write_frame(frame, **arrays):
-                            saved, values = persistence.save(self)
-                            writer.checkpoint(saved, dict(values, **{"run.start_time": start_time}))
-                    bar.update(1)
-            self.output = writer.close(keep_checkpoint) if writer is not None else None
+            with interruptions():   # SIGTERM raises RunInterrupted to the end of the final stitch
+                with tqdm(total=total, initial=first, unit="frame", disable=None if progress else True,
+                          desc="simulating") as bar:
+                    for frame, _, arrays in self._frame_loop(total, fps, substeps, usd is not None, first,
+                                                             start_time):
+                        if writer is not None:
+                            self._refuse_unwritable(frame, arrays)
+                            if writer.write_frame(frame, **arrays):
+                                saved, values = persistence.save(self)
+                                writer.checkpoint(saved, dict(values, **{"run.start_time": start_time}))
+                        bar.update(1)
+                raise_pending()
+                self.output = writer.close(keep_checkpoint) if writer is not None else None
             return self.output
         except SimulationDiverged as error:
             if writer is not None and writer.frames_written:
@@ -473,8 +481,10 @@ class Simulator(Persistent):
                 writer.abort()
             raise
         except (KeyboardInterrupt, OSError) as error:   # a signal, a full disk: keep the last checkpoint
-            if writer is not None:
-                error.frames_checkpointed, error.usd = writer.suspend(), writer.path
+            if writer is not None:   # (a signal in close()'s rename waits until the stage is whole: complete)
+                error.frames_checkpointed = 0 if writer.complete else writer.suspend()
+                error.usd, error.complete = writer.path, writer.complete
+                self.output = writer.path if writer.complete else None
             raise
         except BaseException:
             if writer is not None:
@@ -519,31 +529,3 @@ def _frame_arguments(seconds, fps, substeps) -> tuple[int, float, int | str]:
     if frames < 1:
         raise checks.fail("seconds", seconds, f"covers no frame at fps={fps}; need seconds >= {0.5 / fps:g}")
     return frames, fps, substeps
-
-
-class RunInterrupted(KeyboardInterrupt):
-    """A run stopped by a signal: SIGINT (Ctrl-C) or SIGTERM (``timeout``, a scheduler, a container stop).
-
-    signal: the signal's number; exit_code: what a process should exit with, 128 + signal (130, 143)."""
-
-    def __init__(self, signum: int):
-        self.signal, self.exit_code = signum, 128 + signum
-        super().__init__(f"interrupted by {signal.Signals(signum).name}")
-
-
-@contextlib.contextmanager
-def interruptions():
-    """SIGTERM raises RunInterrupted inside the block, as Ctrl-C raises KeyboardInterrupt, so a run cleans up
-    the same way for both. Only in the main thread (where Python delivers signals); elsewhere a no-op."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def stop(signum, _frame):
-        raise RunInterrupted(signum)
-
-    previous = signal.signal(signal.SIGTERM, stop)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)

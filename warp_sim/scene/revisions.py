@@ -28,10 +28,9 @@ class Revised:
     def require(self, revision: int) -> None:
         """Raise ValueError unless the scene is still at ``revision`` (the one its Simulator was built from)."""
         if self.__dict__.get("_revision", 0) != revision:
-            changed = self.revision - revision
-            raise checks.fail("scene", self, f"the scene changed after its Simulator was built ({changed} change(s): "
-                                             "add_* calls or attribute sets), and a Simulator reads its scene once; "
-                                             "build a new one for the changed scene: ws.Simulator(scene)")
+            raise checks.fail("scene", self, "the scene changed after its Simulator was built (an add_* call or an "
+                                             "attribute set), and a Simulator reads its scene once; build a new one "
+                                             "for the changed scene: ws.Simulator(scene)")
 
 
 def changes(method):
