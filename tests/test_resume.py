@@ -14,6 +14,7 @@ import pytest
 from helpers import stage_samples
 
 import warp_sim as ws
+from warp_sim.cli import main as ws_main
 from warp_sim.demo import demo_scene
 from warp_sim.passes.body_contacts import BodyContacts
 from warp_sim.stages import writer as writer_module
@@ -272,3 +273,91 @@ def test_a_full_disk_keeps_whole_files_only_and_resumes_once_freed(small_disk, t
     assert cramped.returncode == 1 and len(lines) == 1 and "No space left" in lines[0], err
     assert sorted(p.name for p in small_disk.iterdir()) == ["ballast"]
     os.sync()
+
+
+# ---- a damaged run folder -----------------------------------------------------------------------------------------
+
+def damaged_run(tmp_path, monkeypatch, chunk=10):
+    """An uninterrupted run's stage, and the folder of the same run stopped after its second checkpoint (20 frames:
+    checkpoint.npz lists chunks 0 and 1, checkpoint-previous.npz chunk 0)."""
+    args = dict(seconds=1.0, fps=60, substeps=4, chunk_frames=chunk, progress=False)
+    reference = ws.Simulator(springs_scene()).run(**args, usd=tmp_path / "whole.usdc")
+    stop_after_checkpoints(monkeypatch, 2)
+    out = tmp_path / "out.usdc"
+    with pytest.raises(KeyboardInterrupt):
+        ws.Simulator(springs_scene()).run(**args, usd=out)
+    monkeypatch.undo()
+    (folder,) = strays(out)
+    return reference, out, folder, args
+
+
+@pytest.mark.parametrize("damage, named, then, first", [
+    (lambda folder: (folder / CHECKPOINT).write_bytes(b"not a zip"), CHECKPOINT,
+     "going on from frame 10, the checkpoint before it", 10),
+    (lambda folder: (folder / CHECKPOINT).write_bytes((folder / CHECKPOINT).read_bytes()[:300]), CHECKPOINT,
+     "going on from frame 10, the checkpoint before it", 10),
+    (lambda folder: (folder / "chunk-000001.usdc").write_bytes((folder / "chunk-000001.usdc").read_bytes()[:500]),
+     "chunk-000001.usdc", "going on from frame 10, the checkpoint before it", 10),
+    (lambda folder: (folder / "chunk-000000.usdc").write_bytes(b""), "chunk-000000.usdc",
+     "starting over from frame 0", 0),
+])
+def test_a_damaged_checkpoint_or_chunk_is_said_once_and_the_run_goes_on_from_before_it(tmp_path, monkeypatch, damage,
+                                                                                        named, then, first):
+    """A checkpoint that is no zip or is cut short, a chunk cut short or emptied: one warning at the start of the
+    resume naming the file, then the run goes on from the checkpoint before it (or frame 0) and its stage is an
+    uninterrupted run's. (Before: BadZipFile's traceback; a truncated chunk simulated the whole run, then failed
+    at the stitch and advised a resume that failed the same way.)"""
+    reference, out, folder, args = damaged_run(tmp_path, monkeypatch)
+    damage(folder)
+    sim = ws.Simulator(springs_scene())
+    resumed_at = []
+    real = ws.Simulator._frame_loop
+
+    def frame_loop(self, frames, fps, substeps, arrays, first=0, *rest):
+        resumed_at.append(first)
+        return real(self, frames, fps, substeps, arrays, first, *rest)
+    monkeypatch.setattr(ws.Simulator, "_frame_loop", frame_loop)
+    with pytest.warns(UserWarning) as said:
+        assert sim.run(**args, usd=out, resume=True) == out
+    assert len(said) == 1, [str(w.message) for w in said]
+    message = str(said[0].message)
+    assert message.startswith(f"resume: {folder / named} cannot be read (") and message.endswith(then), message
+    assert resumed_at == [first]
+    assert_same_samples(out, reference)
+    assert leftovers(tmp_path) == []
+
+
+def test_a_chunk_damaged_after_the_resume_began_is_dropped_so_no_resume_meets_it_again(tmp_path, monkeypatch):
+    """The stitch finds a chunk cut short (after the resume's check): the run fails naming it, the chunk and the
+    checkpoints listing it go, and the next resume starts over and completes: no loop."""
+    reference, out, folder, args = damaged_run(tmp_path, monkeypatch)
+    real = writer_module.StageWriter.close
+
+    def close(self, keep_checkpoint=False):
+        chunk = self._run.chunks[0]
+        chunk.write_bytes(chunk.read_bytes()[:400])
+        return real(self, keep_checkpoint)
+    monkeypatch.setattr(writer_module.StageWriter, "close", close)
+    with pytest.raises(OSError, match="chunk-000000.usdc cannot be read .*; it was removed") as failed:
+        ws.Simulator(springs_scene()).run(**args, usd=out, resume=True)
+    assert failed.value.frames_checkpointed == 0 and leftovers(tmp_path) == []
+    monkeypatch.undo()
+    assert ws.Simulator(springs_scene()).run(**args, usd=out, resume=True) == out
+    assert_same_samples(out, reference)
+
+
+def test_the_command_says_a_damaged_checkpoint_in_one_line_and_completes(tmp_path, monkeypatch, capsys):
+    args = ["demo", "--seconds", "0.5", "--chunk-frames", "6", "--no-progress"]
+    assert ws_main([*args, "--out", str(tmp_path / "whole.usdc")]) == 0
+    stop_after_checkpoints(monkeypatch, 2)
+    out = tmp_path / "out.usdc"
+    assert ws_main([*args, "--out", str(out)]) == 130
+    monkeypatch.undo()
+    (folder,) = strays(out)
+    (folder / CHECKPOINT).write_bytes(b"PK\x03\x04 damaged")
+    capsys.readouterr()
+    assert ws_main([*args, "--out", str(out), "--resume"]) == 0
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines == [f"warp-sim: warning: resume: {folder / CHECKPOINT} cannot be read (BadZipFile: File is not a "
+                     "zip file); going on from frame 6, the checkpoint before it"], lines
+    assert_same_samples(out, tmp_path / "whole.usdc")

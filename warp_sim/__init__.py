@@ -2,7 +2,8 @@
 
 The public API: build a Scene, run it with a Simulator, read the State or the USD stage.
 """
-from .util.verbosity import set_verbose  # first: Warp stays quiet unless asked (ws.set_verbose(True))  # noqa: I001
+from .util import interrupts  # first of all: a Ctrl-C while the libraries load is recorded, never swallowed  # noqa: I001
+from .util.verbosity import set_verbose  # then: Warp stays quiet unless asked (ws.set_verbose(True))
 from .core import Control, Model, SimulationDiverged, State
 from .scene import (
                     Attractor,
@@ -40,3 +41,4 @@ __all__ = ["Scene", "Simulator", "Model", "State", "Control", "SimulationDiverge
            "ImplicitEuler", "RK45", "Shape", "Sphere", "Box", "Capsule", "Cylinder", "MeshShape", "PointMasses",
            "MassProperties", "Ramp", "Attractor", "Vortex", "Turbulence", "RunInterrupted", "set_verbose", "sweep",
            "SweepResult", "__version__"]
+interrupts.release()   # the previous handlers back (the command keeps recording until its main)

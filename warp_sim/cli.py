@@ -12,6 +12,7 @@ import math
 import os
 import pathlib
 import re
+import signal
 import subprocess
 import sys
 import threading
@@ -27,9 +28,12 @@ from .demo import demo_scene
 from .scene import Scene
 from .simulator import RunInterrupted, Simulator
 from .solvers import INTEGRATORS, RK45
+from .stages.folders import folder_problem
+from .stages.inputs import overwrite_problem
 from .stages.specs import USD_EXTENSIONS
 from .studies import CASES, PROBLEMS
 from .sweep import sweep
+from .util import interrupts
 from .util.verbosity import set_verbose
 from .util.version import __version__
 
@@ -179,6 +183,14 @@ def _check_file(path: str) -> None:
         raise UsageError(f"{path}: " + ("is a folder, not a file" if pathlib.Path(path).is_dir() else "no such file"))
 
 
+def _check_not_an_input(out: str, scene: str) -> None:
+    """--out is neither the input stage nor a file it reads (its layers, references, payloads: stages.inputs)."""
+    problem = overwrite_problem(pathlib.Path(out if pathlib.Path(out).suffix else f"{out}.usdc"), scene,
+                                f"the input {scene}")
+    if problem is not None:
+        raise UsageError(f"--out {out} is invalid: {problem}")
+
+
 def _check_arches(arches: list[int]) -> None:
     supported = wp.get_cuda_supported_archs()
     if not supported:
@@ -200,6 +212,7 @@ def _check(args, no_driver: bool) -> None:
             raise UsageError(f"--rtol/--atol are rk45's tolerances; --integrator {args.integrator} takes none")
     if args.command == "run":
         _check_file(args.scene)
+        _check_not_an_input(args.out, args.scene)
     if args.command == "prepare" and args.cuda_arch:
         _check_arches(args.cuda_arch)
     if args.command == "sweep":
@@ -207,6 +220,11 @@ def _check(args, no_driver: bool) -> None:
         _check_frames(args.seconds, args.fps)
         if not args.grid:
             raise UsageError("--grid is required: name=value1,value2,... (repeat it for more parameters)")
+    if args.command in ("sweep", "study"):   # made now, or refused: before minutes of work, not after
+        out = args.out or f"out/{args.study}"
+        problem = folder_problem(out)
+        if problem is not None:
+            raise UsageError(f"--out {out} is invalid: {problem}")
 
 
 def _integrator(args):
@@ -503,10 +521,20 @@ def _diverged(error: SimulationDiverged) -> str:
 
 def _kept(error: BaseException, then: str) -> str:
     """What an interrupted run left: its checkpoint and how to go on, or nothing."""
+    if getattr(error, "complete", False):
+        return f"; {error.usd} was already written whole"
     frames = getattr(error, "frames_checkpointed", 0)
     if not frames:
         return "; nothing was written"
     return f"; its first {frames} frames are checkpointed: {then}run the same command with --resume to go on"
+
+
+def _interrupted(error: BaseException) -> int:
+    """The one line of a stopped command (the signal, what was kept) and its exit status, 128 + the signal."""
+    signum = error.signal if isinstance(error, RunInterrupted) else interrupts.pending() or signal.SIGINT
+    name = "interrupted (Ctrl-C)" if signum == signal.SIGINT else f"interrupted by {signal.Signals(signum).name}"
+    print(f"warp-sim: {name}{_kept(error, '')}", file=sys.stderr)
+    return 128 + signum
 
 
 def _one_line(message, category, filename, lineno, file=None, line=None) -> None:
@@ -517,13 +545,23 @@ def _one_line(message, category, filename, lineno, file=None, line=None) -> None
 def main(argv=None) -> int:
     """Entry point of the `warp-sim` console script and of ``python -m warp_sim``: one line and a non-zero exit
     for every expected failure (a bad command line or input 2, divergence or an unwritable output 1, Ctrl-C 130,
-    SIGTERM 143; an interrupted run says how to resume), a traceback only with --verbose; every argument is
-    checked before anything is printed or built."""
+    SIGTERM 143, from the first instant: util.interrupts; an interrupted run says how to resume), a traceback
+    only with --verbose; every argument is checked before anything is printed or built."""
     # the command's wall time: from the process's start for the console script, from this call when called
     started = time.perf_counter() - (_process_age() if argv is None else 0.0)
-    compiled_before = compiling.seconds_compiling()
     argv = sys.argv[1:] if argv is None else [str(item) for item in argv]
     verbose = "--verbose" in argv
+    try:
+        with interrupts.armed():   # a signal while warp_sim imported stops it here, before anything is touched
+            return _main(argv, started, verbose)
+    except KeyboardInterrupt as error:
+        if verbose:
+            raise
+        return _interrupted(error)
+
+
+def _main(argv: list[str], started: float, verbose: bool) -> int:
+    compiled_before = compiling.seconds_compiling()
     try:
         args = build_parser().parse_args(argv)
     except SystemExit as done:   # --help, --version
@@ -539,16 +577,16 @@ def main(argv=None) -> int:
                 warnings.showwarning = _one_line
             _check(args, _start_warp(verbose))
             return args.run(args)
-    except (ValueError, SimulationDiverged, OSError, KeyboardInterrupt, ImportError) as error:
+    except Exception as error:
         if verbose:
             raise
-        if isinstance(error, KeyboardInterrupt):
-            name = str(error) if isinstance(error, RunInterrupted) else "interrupted (Ctrl-C)"
-            print(f"warp-sim: {name}{_kept(error, '')}", file=sys.stderr)
-            return error.exit_code if isinstance(error, RunInterrupted) else 130
+        if interrupts.pending() is not None:   # a Ctrl-C a library caught, surfacing as another error
+            return _interrupted(error)
         if isinstance(error, SimulationDiverged):
             print(_diverged(error), file=sys.stderr)
             return 1
+        if not isinstance(error, (ValueError, OSError, ImportError)):
+            raise
         kept = _kept(error, "free some space (or fix the cause), then ") if isinstance(error, OSError) else ""
         text = str(error) if isinstance(error, UsageError) else _in_cli_terms(str(error))
         print(f"warp-sim: error: {text}{'' if kept == '; nothing was written' else kept}", file=sys.stderr)

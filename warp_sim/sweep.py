@@ -17,6 +17,7 @@ its parameters only (seeds are parameters).
 from __future__ import annotations
 
 import csv
+import inspect
 import io
 import itertools
 import json
@@ -29,7 +30,9 @@ import time
 
 from . import cluster
 from .core.guards import SimulationDiverged
-from .simulator import Simulator
+from .simulator import Simulator, resolve_device
+from .solvers import INTEGRATORS
+from .stages.folders import folder_problem
 from .stages.runs import write_atomically
 from .util import checks
 from .util.fingerprint import fingerprint
@@ -185,6 +188,65 @@ def _save(out: pathlib.Path, rows: list[dict]) -> SweepResult:
     return result
 
 
+def check_run(seconds, fps, substeps, integrator, device, local: bool = True) -> dict:
+    """The run arguments every variant gets, checked once before any cluster starts: seconds and fps > 0 covering
+    at least one frame, substeps "auto" or a count, integrator one of INTEGRATORS' names (each worker makes its
+    own solver), device None or a device of this machine (``local``: the embedded cluster's workers are its
+    processes) or, for a remote cluster, of the form cpu, cuda or cuda:N."""
+    seconds = checks.scalar("seconds", seconds, low=0.0, low_open=True)
+    fps = checks.scalar("fps", fps, low=0.0, low_open=True)
+    if round(seconds * fps) < 1:
+        raise checks.fail("seconds", seconds, f"covers no frame at fps={fps:g}; need seconds >= {0.5 / fps:g}")
+    if not isinstance(integrator, str):
+        raise checks.fail("integrator", integrator, "expected a solver name (each worker makes its own solver)")
+    checks.choice("integrator", integrator, sorted(INTEGRATORS))
+    if device is not None:
+        if not isinstance(device, str) or not re.fullmatch(r"cpu|cuda(:\d+)?", device):
+            raise checks.fail("device", device, "expected None, 'cpu', 'cuda' or 'cuda:N'")
+        if local:
+            resolve_device(device)
+    return {"seconds": seconds, "fps": fps, "substeps": checks.substeps("substeps", substeps),
+            "integrator": integrator, "device": device}
+
+
+def _check_params(build_fn, grid, rows: list[dict]) -> None:
+    """Every variant's parameters: names build() takes, values sweep.json holds as they are."""
+    try:
+        signature = inspect.signature(build_fn)
+    except (TypeError, ValueError):   # a builtin or a C function: nothing to check against
+        signature = None
+    for params in rows:
+        for name, value in params.items():
+            if not isinstance(name, str) or not name.isidentifier():
+                raise checks.fail("grid", grid, f"parameter name {name!r} is not a Python identifier "
+                                                "(build(**params) takes it as a keyword)")
+            try:
+                same = json.loads(json.dumps(value)) == value
+            except (TypeError, ValueError):
+                same = False
+            if not same:
+                raise checks.fail("grid", grid, f"{name}={value!r} is not a number, string, bool or None (or a list "
+                                                "of them): each variant's parameters are written to sweep.json")
+        if signature is not None:
+            try:
+                signature.bind(**params)
+            except TypeError as error:
+                raise checks.fail("grid", grid, f"build{signature} does not take {params}: {error}") from None
+
+
+def _check_where(client, scheduler, workers, progress, on_start) -> None:
+    if client is not None and scheduler is not None:
+        raise checks.fail("scheduler", scheduler, "give a client or a scheduler's address, not both")
+    if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
+        raise checks.fail("scheduler", scheduler, "expected a scheduler address such as 'tcp://host:8786'")
+    if workers is not None:
+        checks.count("workers", workers)
+    if not isinstance(progress, bool):
+        raise checks.fail("progress", progress, "expected True or False")
+    if on_start is not None and not callable(on_start):
+        raise checks.fail("on_start", on_start, "expected a function on_start(client), or None")
+
+
 def sweep(build, grid, *, seconds: float, fps: float = 60.0, substeps="auto", integrator="rk4", measure=None,
           out="sweep", client=None, workers: int | None = None, device: str | None = None,
           scheduler: str | None = None, progress: bool = True, on_start=None) -> SweepResult:
@@ -194,19 +256,20 @@ def sweep(build, grid, *, seconds: float, fps: float = 60.0, substeps="auto", in
     seconds, fps, substeps, integrator (a name), device: as Simulator.run and Simulator; out: the folder of the
     stages and of sweep.json / sweep.csv; client: a dask.distributed.Client to run on, or scheduler: its address,
     or neither: an embedded LocalCluster of ``workers`` processes (default: the cores), closed at the end;
-    on_start: called with the client once connected (the command line prints the dashboard's link)."""
+    on_start: called with the client once connected (the command line prints the dashboard's link). Every argument
+    is checked before a cluster starts (a bad one is a ValueError naming it), and ``out`` is made or refused then."""
     build_fn, _ = _functions(build, measure)
-    if not isinstance(integrator, str):
-        raise checks.fail("integrator", integrator, "expected a solver name (each worker makes its own solver)")
     rows_by_params = variants(grid)
     ids = [variant_id(params) for params in rows_by_params]
     if len(set(ids)) != len(ids):
         raise checks.fail("grid", grid, "holds the same variant twice")
-    run = {"seconds": checks.scalar("seconds", seconds, low=0.0, low_open=True),
-           "fps": checks.scalar("fps", fps, low=0.0, low_open=True), "substeps": checks.substeps("substeps", substeps),
-           "integrator": integrator, "device": device}
+    _check_params(build_fn, grid, rows_by_params)
+    run = check_run(seconds, fps, substeps, integrator, device, local=client is None and scheduler is None)
+    _check_where(client, scheduler, workers, progress, on_start)
+    problem = folder_problem(out)   # made now, or refused: before minutes of work, not after
+    if problem is not None:
+        raise checks.fail("out", os.fspath(out), problem)
     out = pathlib.Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     done = _load(out)
     rows = {vid: done[vid] for vid in ids if vid in done}
     script = os.fspath(build) if isinstance(build, (str, os.PathLike)) else None

@@ -2,10 +2,17 @@
 
 A run writing ``out.usdc`` keeps its work in the hidden folder ``.out.run-<pid>/`` next to it:
 ``chunk-000000.usdc``, ``chunk-000001.usdc``, ... (each a layer of one chunk's time samples, written once) and
-``checkpoint.npz`` (what the simulation needs to go on after the last chunk). Every file is written under a
+``checkpoint.npz`` (what the simulation needs to go on after the last chunk; each chunk is written before its
+checkpoint), with the one before it kept as ``checkpoint-previous.npz``. Every file is written under a
 temporary name, flushed to disk and renamed into place, so a kill or a power cut at any moment leaves only
 whole files. The checkpoint is data, never code: numpy arrays plus one JSON document, read with
 ``allow_pickle=False``, so a file planted beside an output cannot run anything.
+
+A file damaged since (a checkpoint that is no zip, a chunk cut short: ``read_checkpoint``, ``read_chunk``) is
+found before a resume uses it (``RunFolder.checkpoints``): the newest checkpoint that reads whole with every
+chunk it lists is the one to go on from, the previous one when the last does not read or lists a bad chunk,
+else none (the run starts over); a chunk that fails the final stitch is dropped with the checkpoints listing it
+(``RunFolder.drop``), so no resume meets it again.
 
 A folder whose process is no longer alive (or that an earlier run of this process left) is a stray: a new run to
 the same output removes it, and a run asked to resume adopts the one whose checkpoint matches it (renamed to its
@@ -21,8 +28,12 @@ import re
 import shutil
 
 import numpy as np
+from pxr import Sdf
+
+from ..util import interrupts
 
 CHECKPOINT = "checkpoint.npz"
+PREVIOUS = "checkpoint-previous.npz"   # the checkpoint before the last, for when the last cannot be read
 META = "__meta__"    # the checkpoint's JSON document, stored as bytes among its arrays
 FORMAT = 1           # the checkpoint format; a checkpoint of another format is refused
 
@@ -87,19 +98,72 @@ def export_layer(layer, path: pathlib.Path) -> None:
     raise OSError(reason)
 
 
-def write_atomically(path: pathlib.Path, write) -> None:
+def write_atomically(path: pathlib.Path, write, committed=None) -> None:
     """``write(temporary_path)``, then flush it to disk and rename it onto ``path``; on any failure the temporary
-    file is removed and ``path`` is untouched."""
+    file is removed and ``path`` is untouched. With ``committed`` (a function), SIGINT and SIGTERM wait from the
+    rename until ``committed()`` has run (``util.interrupts.held``): a signal then finds ``path`` holding the old
+    file or the whole new one, and the caller's record of which."""
     temporary = path.with_name(f".{path.name}.tmp")
     try:
         write(temporary)
         with open(temporary, "rb+") as f:
             os.fsync(f.fileno())
-        os.replace(temporary, path)
-        _sync_folder(path.parent)
+        with interrupts.held() if committed is not None else contextlib.nullcontext():
+            os.replace(temporary, path)
+            _sync_folder(path.parent)
+            if committed is not None:
+                committed()
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+
+
+def read_checkpoint(path: pathlib.Path) -> tuple[dict[str, np.ndarray], dict]:
+    """(arrays, meta) of a checkpoint file, or ValueError saying why it cannot be read (missing, not a zip, cut
+    short, holding an object array, a document without its fields)."""
+    try:
+        with open(path, "rb") as file, np.load(file, allow_pickle=False) as data:   # closed however np.load fails
+            arrays = {name: data[name] for name in data.files}
+        meta = json.loads(arrays.pop(META).tobytes().decode())
+    except Exception as error:   # OSError, BadZipFile, zlib.error, EOFError, ValueError (pickled data), KeyError
+        raise ValueError(error_reason(error)) from None
+    if not isinstance(meta, dict) or not isinstance(meta.get("frames"), int) or not isinstance(meta.get("chunks"),
+                                                                                                list):
+        raise ValueError("it is not a checkpoint: its document has no frames and chunks")
+    return arrays, meta
+
+
+def read_chunk(path: pathlib.Path):
+    """The Sdf.Layer of a chunk file, or OSError saying why it cannot be read (USD's first error: "Sdf crate file
+    corrupt, possibly truncated", ...)."""
+    try:
+        layer = Sdf.Layer.OpenAsAnonymous(str(path))
+    except Exception as error:   # pxr.Tf.ErrorException
+        raise OSError(error_reason(error)) from None
+    if layer is None:
+        raise OSError("USD cannot open it")
+    return layer
+
+
+def _unreadable(chunk: pathlib.Path) -> str | None:
+    """Why a chunk file cannot be read, or None when it can."""
+    try:
+        read_chunk(chunk)
+    except OSError as error:
+        return str(error)
+    return None
+
+
+def error_reason(error: Exception) -> str:
+    """An error's reason in one line: USD's own message where it is USD's, else its type and first line."""
+    if isinstance(error, FileNotFoundError):
+        return "it is missing"
+    text = str(error).strip()
+    found = USD_ERROR.search(text)
+    if found:
+        return found.group(1)
+    first = (text.splitlines() or [""])[0]
+    return f"{type(error).__name__}: {first}" if first else type(error).__name__
 
 
 class RunFolder:
@@ -126,38 +190,80 @@ class RunFolder:
         self.chunks.append(path)
 
     def save_checkpoint(self, arrays: dict[str, np.ndarray], meta: dict) -> None:
-        """Write the checkpoint: ``arrays`` and the JSON document ``meta`` (which lists the chunks so far)."""
+        """Write the checkpoint: ``arrays`` and the JSON document ``meta`` (which lists the chunks so far); the one
+        it replaces becomes the previous checkpoint (PREVIOUS), to go on from should this one not read."""
         document = dict(meta, format=FORMAT, chunks=[chunk.name for chunk in self.chunks])
         payload = dict(arrays, **{META: np.frombuffer(json.dumps(document).encode(), dtype=np.uint8)})
 
         def dump(temporary):
             with open(temporary, "wb") as f:
                 np.savez(f, **payload)
+        if (self.folder / CHECKPOINT).exists():   # a kill between the two renames leaves the previous one
+            os.replace(self.folder / CHECKPOINT, self.folder / PREVIOUS)
         write_atomically(self.folder / CHECKPOINT, dump)
 
-    def load_checkpoint(self) -> tuple[dict[str, np.ndarray], dict] | None:
-        """(arrays, meta) of the folder's checkpoint, or None if it has none that reads whole (with its chunks)."""
-        path = self.folder / CHECKPOINT
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                arrays = {name: data[name] for name in data.files}
-            meta = json.loads(arrays.pop(META).tobytes().decode())
-        except (OSError, ValueError, KeyError, EOFError):
-            return None
-        if not isinstance(meta, dict) or not all((self.folder / name).is_file() for name in meta.get("chunks", [])):
-            return None
-        return arrays, meta
+    def checkpoints(self) -> tuple[tuple[dict[str, np.ndarray], dict, str] | None, list[tuple[pathlib.Path, str]]]:
+        """(arrays, meta, file name) of the newest checkpoint that reads whole with every chunk it lists (None if
+        none does), and the files found damaged on the way: (path, reason) for a checkpoint or a chunk that cannot
+        be read."""
+        damaged = []
+        for name in (CHECKPOINT, PREVIOUS):
+            path = self.folder / name
+            if not path.exists():
+                continue
+            try:
+                arrays, meta = read_checkpoint(path)
+            except ValueError as error:
+                damaged.append((path, str(error)))
+                continue
+            bad = self._first_bad_chunk(meta["chunks"])
+            if bad is None:
+                return (arrays, meta, name), damaged
+            if bad not in damaged:
+                damaged.append(bad)
+        return None, damaged
 
-    def adopt(self, folder: pathlib.Path, chunks: list[str]) -> None:
-        """Take over another (dead) run's folder as this one, keeping its first chunks (``chunks``)."""
+    def _first_bad_chunk(self, names: list[str]) -> tuple[pathlib.Path, str] | None:
+        for name in names:
+            why = _unreadable(self.folder / name)
+            if why is not None:
+                return self.folder / name, why
+        return None
+
+    def load_checkpoint(self) -> tuple[dict[str, np.ndarray], dict] | None:
+        """(arrays, meta) of the folder's newest checkpoint that reads whole (with its chunks), or None."""
+        found = self.checkpoints()[0]
+        return None if found is None else found[:2]
+
+    def adopt(self, folder: pathlib.Path, chunks: list[str], checkpoint: str = CHECKPOINT) -> None:
+        """Take over another (dead) run's folder as this one, keeping its first chunks (``chunks``) and the
+        checkpoint ``checkpoint`` (a file name) as its own; what is past them goes."""
         if folder != self.folder:
             shutil.rmtree(self.folder, ignore_errors=True)
             os.replace(folder, self.folder)
+        if checkpoint != CHECKPOINT:   # the previous checkpoint: the last one did not read, or lists a bad chunk
+            os.replace(self.folder / checkpoint, self.folder / CHECKPOINT)
         self.chunks = [self.folder / name for name in chunks]
-        listed = {path.name for path in self.chunks} | {CHECKPOINT}
+        listed = {path.name for path in self.chunks} | {CHECKPOINT, PREVIOUS}
         for leftover in self.folder.iterdir():   # chunks past the checkpoint, temporary files
             if leftover.name not in listed:
                 leftover.unlink(missing_ok=True)
+
+    def drop(self, chunk: pathlib.Path) -> None:
+        """Remove a chunk that cannot be read, the chunks after it and the checkpoints that list it, so that a
+        resume goes on from before it (or starts over), never from it again."""
+        names = [path.name for path in self.chunks]
+        gone = set(names[names.index(chunk.name):]) if chunk.name in names else {chunk.name}
+        for name in (CHECKPOINT, PREVIOUS):
+            try:
+                listed = set(read_checkpoint(self.folder / name)[1]["chunks"])
+            except ValueError:
+                listed = gone
+            if listed & gone:
+                (self.folder / name).unlink(missing_ok=True)
+        for name in gone:
+            (self.folder / name).unlink(missing_ok=True)
+        self.chunks = [path for path in self.chunks if path.name not in gone]
 
     def remove(self) -> None:
         with contextlib.suppress(OSError):

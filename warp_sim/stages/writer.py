@@ -45,10 +45,14 @@ again by a later writer with ``resume=True`` and the same ``key``: it adopts the
 folder, starts at the frame after the checkpoint and returns the checkpoint in ``resumed``.
 
 The path is checked when the writer is made, before anything is simulated: its extension,
-that it is not an existing folder, that its folder can be made and written (the run folder is
-made there at once). Run folders of processes that are no longer alive are removed then
-(unless one is resumed). Any failure of ``close()`` (a full disk) removes the temporary export
-and raises OSError naming the user's path.
+that it is not an existing folder, that it is no file the run reads (the overlay's input stage and
+every layer and asset of it, and the stages in ``reads``: ``stages.inputs``; a ValueError before
+anything is made), that its folder can be made and written (the run folder is made there at
+once). Run folders of processes that are no longer alive are removed then (unless one is
+resumed). Any failure of ``close()`` (a full disk, a chunk damaged since it was written) removes
+the temporary export and raises OSError naming the user's path. A resume that finds a checkpoint
+or chunk it cannot read says so in one warning naming the file, and goes on from the checkpoint
+before it or from frame 0.
 """
 
 from __future__ import annotations
@@ -56,17 +60,29 @@ from __future__ import annotations
 import math
 import os
 import pathlib
+import warnings
 from typing import TYPE_CHECKING
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom, UsdPhysics, UsdUtils, Vt
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdPhysics, UsdUtils, Vt
 
 if TYPE_CHECKING:
     from typing_extensions import Self  # typing.Self needs Python 3.11
 
+from .inputs import refuse_overwrite
 from .overlay import Overlay
 from .prims import POOL_ARRAYS, QUAT_NORM_TOLERANCE, Frame, check_in_range, check_rows, prim_writers, require
-from .runs import FORMAT, RunFolder, export_layer, remove_strays, run_folder, strays, write_atomically
+from .runs import (
+    FORMAT,
+    RunFolder,
+    error_reason,
+    export_layer,
+    read_chunk,
+    remove_strays,
+    run_folder,
+    strays,
+    write_atomically,
+)
 from .specs import USD_EXTENSIONS, WORLD_PATH, StageLayout
 
 __all__ = ["StageWriter"]
@@ -80,7 +96,7 @@ class StageWriter:
     """
 
     def __init__(self, path, fps: float, layout: StageLayout | None, chunk_frames: int = 240, key: str | None = None,
-                 resume: bool = False, overlay: Overlay | None = None):
+                 resume: bool = False, overlay: Overlay | None = None, reads=()):
         require(isinstance(path, (str, os.PathLike)) and str(path).strip() != "",
                 f"usd={path!r} is invalid: expected a file path ending in {', '.join(USD_EXTENSIONS)}")
         self._given = path
@@ -109,6 +125,8 @@ class StageWriter:
         folder = next((p for p in (pathlib.Path(path), self._path) if p.is_dir()), None)   # as given, and with .usdc
         require(folder is None, f"usd={str(path)!r} is invalid: it is an existing folder; give a file path such as "
                                 f"{str((folder or self._path) / ('out' + ext))!r}")
+        sources = ([(f"the input stage over={overlay.input!r}", overlay.stage)] if overlay else []) + list(reads)
+        refuse_overwrite(self._path, path, sources)   # before anything is made: the output never replaces an input
         try:
             self._path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as error:
@@ -127,27 +145,33 @@ class StageWriter:
                 raise OSError(f"cannot write {str(path)!r}: {error.strerror or error}") from None
         self._checkpointed = self._frames
         self._saving = False
+        self.complete = False   # True once close() has put the whole stage on the final path
         self._stage = Usd.Stage.CreateInMemory(f"anon{self._path.suffix}")
         self._define()
 
     def _resume(self) -> tuple[dict, dict] | None:
         """Adopt the newest dead run's folder whose checkpoint has this writer's key: (arrays, meta) of its
-        checkpoint, or None when there is none. ValueError when checkpoints exist but none has the key."""
-        found = [(folder, RunFolder(folder).load_checkpoint()) for folder in strays(self._path)]
-        found = [(folder, checkpoint) for folder, checkpoint in found if checkpoint is not None]
+        checkpoint, or None when there is none. ValueError when checkpoints exist but none has the key. A
+        checkpoint or chunk that cannot be read is said in one warning naming it, with where the run goes on from:
+        the checkpoint before it, or frame 0 (``RunFolder.checkpoints``)."""
+        found = [(folder, *RunFolder(folder).checkpoints()) for folder in strays(self._path)]
+        damaged = [item for _, _, bad in found for item in bad]
+        found = [(folder, checkpoint) for folder, checkpoint, _ in found if checkpoint is not None]
         matching = [(folder, checkpoint) for folder, checkpoint in found
                     if checkpoint[1].get("key") == self._key and checkpoint[1].get("format") == FORMAT]
         if not matching:
             if found:
-                folder, (_, meta) = found[-1]
+                folder, (_, meta, _) = found[-1]
                 raise ValueError(
                     f"resume: the checkpoint of {str(self._given)!r} in {folder.name} was written for another "
                     f"scene, simulator or run arguments (fingerprint {meta.get('key')}, format "
                     f"{meta.get('format')}; this run's: {self._key}, format {FORMAT}); it was not used: run without "
                     "resume to start over (which removes it)")
+            _say_damaged(damaged, "starting over from frame 0")
             return None
-        folder, (arrays, meta) = max(matching, key=lambda item: item[1][1]["frames"])
-        self._run.adopt(folder, meta["chunks"])
+        folder, (arrays, meta, name) = max(matching, key=lambda item: item[1][1]["frames"])
+        _say_damaged(damaged, f"going on from frame {meta['frames']}, the checkpoint before it")
+        self._run.adopt(folder, meta["chunks"], name)
         self._frames = int(meta["frames"])
         return arrays, meta
 
@@ -348,25 +372,34 @@ class StageWriter:
     def close(self, keep_checkpoint: bool = False) -> pathlib.Path:
         """Stitch the chunks into one stage, export it afresh and move it onto the final path; returns that path.
         The run's folder is removed, unless ``keep_checkpoint``. On any failure (a full disk) the temporary export
-        is removed, the run's last checkpoint is kept (to resume from) and OSError names the user's path."""
+        is removed, the run's last checkpoint is kept (to resume from) and OSError names the user's path. A signal
+        (Ctrl-C, SIGTERM) while it stitches stops it the same way, the final path untouched; one during the rename
+        waits until the stage is in place and ``complete`` is True, then raises."""
         self._check_open()
         require(self._frames > 0,
                  f"close(): no frames written to {str(self._path)!r}; an empty animation is not a stage")
         try:
             layer = self._stage.GetRootLayer()
-            chunks = [Sdf.Layer.FindOrOpen(str(chunk)) for chunk in self._run.chunks]
-            for chunk in chunks:
-                UsdUtils.StitchLayers(layer, chunk)
+            for chunk in list(self._run.chunks):
+                try:
+                    UsdUtils.StitchLayers(layer, read_chunk(chunk))
+                except (OSError, Tf.ErrorException) as error:   # damaged since written: no resume meets it again
+                    self._run.drop(chunk)
+                    loaded = self._run.load_checkpoint()
+                    self._checkpointed = int(loaded[1]["frames"]) if loaded is not None else 0
+                    raise OSError(f"{chunk} cannot be read ({error_reason(error)}); it was removed") from None
             self._stage.SetEndTimeCode(self._time_start + max(self._frames - 1, 0) * self._time_step)
             if self._overlay is not None:
                 layer = self._overlay.finish(layer, self._path)
-            write_atomically(self._path, lambda temporary: export_layer(layer, temporary))
+
+            def committed():   # with signals held from the rename to here: a signal after it finds the run complete
+                self._stage, self.complete = None, True
+                if not keep_checkpoint:
+                    self._run.remove()
+            write_atomically(self._path, lambda temporary: export_layer(layer, temporary), committed)
         except Exception as error:   # OSError, pxr.Tf.ErrorException: one message, the user's path
             self.suspend()
             raise self._cannot_write(error) from None
-        self._stage = None
-        if not keep_checkpoint:
-            self._run.remove()
         return self._path
 
     def suspend(self) -> int:
@@ -398,3 +431,11 @@ class StageWriter:
         except BaseException:
             self.abort()
             raise
+
+
+def _say_damaged(damaged: list[tuple[pathlib.Path, str]], then: str) -> None:
+    """One warning for the files of run folders that cannot be read: the first named, with its reason."""
+    if damaged:
+        (path, reason), more = damaged[0], len(damaged) - 1
+        others = f" (and {more} more file{'s' * (more > 1)})" if more else ""
+        warnings.warn(f"resume: {path} cannot be read ({reason}){others}; {then}", stacklevel=4)
