@@ -92,7 +92,8 @@ def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: 
     strain_limiter = StrainLimiter(model, scene) if any(m.max_stretch is not None for m in scene.meshes) else None
     body_contacts = (BodyContacts(model, detection, solver.position_response, max_step=contact_step)
                      if impulse and bodies_collide else None)
-    particle_shapes = ParticleShapeContacts(model, geometry, detection) if particles_meet_shapes else None
+    particle_shapes = (ParticleShapeContacts(model, geometry, detection, scene.colliders) if particles_meet_shapes
+                       else None)
     impacts = PlaneImpacts(model) if impulse and particle_planes else None
     projection = ComponentProjection(dynamics) if model.body_count else None
     emitters = EmitterPools(model, scene) if scene.emitters else None
