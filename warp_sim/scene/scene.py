@@ -58,11 +58,7 @@ class Scene(Revised):
     def __init__(self, gravity=(0.0, -9.81, 0.0), precision: str = "float32", drag: float = 0.0,
                  wind=(0.0, 0.0, 0.0), angular_drag: float = 0.0):
         self.precision = checks.choice("precision", precision, PRECISIONS)
-        self.gravity = _frozen(checks.fits("gravity", checks.vec3("gravity", gravity), self.precision))
-        self.drag = float(checks.fits("drag", checks.scalar("drag", drag, low=0.0), self.precision))
-        self.angular_drag = float(checks.fits("angular_drag", checks.scalar("angular_drag", angular_drag, low=0.0),
-                                              self.precision))
-        self.wind = _frozen(checks.fits("wind", checks.vec3("wind", wind), self.precision))
+        self.gravity, self.drag, self.angular_drag, self.wind = gravity, drag, angular_drag, wind
         self.particle_groups: list[ParticleGroup] = []
         self.bodies: list[RigidBody] = []
         self._body_names: set[str] = set()      # unique-name checks stay O(1) for 10^5 bodies
@@ -78,6 +74,40 @@ class Scene(Revised):
         self.usd_paths: dict[str, tuple] = {}
         self.usd_source = None
 
+
+    # the global forces: checked (and within the precision) however they are set, since a set counts in the revision
+    @property
+    def gravity(self) -> np.ndarray:
+        return self._gravity
+
+    @gravity.setter
+    def gravity(self, value) -> None:
+        self._gravity = _frozen(checks.fits("gravity", checks.vec3("gravity", value), self.precision))
+
+    @property
+    def wind(self) -> np.ndarray:
+        return self._wind
+
+    @wind.setter
+    def wind(self, value) -> None:
+        self._wind = _frozen(checks.fits("wind", checks.vec3("wind", value), self.precision))
+
+    @property
+    def drag(self) -> float:
+        return self._drag
+
+    @drag.setter
+    def drag(self, value) -> None:
+        self._drag = float(checks.fits("drag", checks.scalar("drag", value, low=0.0), self.precision))
+
+    @property
+    def angular_drag(self) -> float:
+        return self._angular_drag
+
+    @angular_drag.setter
+    def angular_drag(self, value) -> None:
+        self._angular_drag = float(checks.fits("angular_drag", checks.scalar("angular_drag", value, low=0.0),
+                                               self.precision))
     @classmethod
     def from_usd(cls, path_or_stage, *, time=0, precision: str = "float32") -> Scene:
         """A Scene from a stage's UsdPhysics description (and ``warpSim:`` attributes) at time code ``time``, in SI
