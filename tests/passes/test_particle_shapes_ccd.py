@@ -73,6 +73,44 @@ def test_fast_particle_stops_on_the_near_side(name, speed):
     assert abs(sim.state.particle_v.numpy()[0, 1]) < 1e-9 * speed
 
 
+def gap_to(name, x, side):
+    """Particle x's gap to THIN[name] at y = 0.5 less R [m], on the ``side`` it came from (over the faces of the
+    slab-like shapes, where their top face is the nearest part; 1 m elsewhere)."""
+    _, _, half = THIN[name]
+    if name == "sphere":
+        return np.linalg.norm(x - (0.0, 0.5, 0.0)) - half - R
+    if name == "capsule":
+        return np.linalg.norm(x - (np.clip(x[0], -0.3, 0.3), 0.5, 0.0)) - half - R
+    return side * (x[1] - 0.5) - half - R if abs(x[0]) < 0.5 else 1.0
+
+
+@pytest.mark.parametrize("degrees", [10.0, 45.0])
+@pytest.mark.parametrize("name", sorted(THIN))
+def test_oblique_particle_bounces_off_the_near_side(name, degrees):
+    """At 10 m/s and 10 or 45 degrees to the surface, e = 0.5, mu = 0.3, aimed at the top (or, for the open surface,
+    at either side; its path crossing the surface): never closer than R over 40 steps; at 1000 m/s it leaves on the
+    side it came from. (A path that grazes within R / 2 of R is left to the end-of-step projection.)"""
+    shape, orientation, half = THIN[name]
+    a = math.radians(degrees)
+    for side in ((1, -1) if name == "open mesh" else (1,)):
+        for speed in (10.0, 1000.0):
+            direction = np.array([math.cos(a), -side * math.sin(a), 0.0])
+            scene = ws.Scene(gravity=(0.0, 0.0, 0.0), precision="float64")
+            scene.add_collider(shape, position=(0.0, 0.5, 0.0), orientation=orientation, restitution=0.5,
+                               friction=0.3)
+            aim = np.array([0.0, 0.5 + side * half, 0.0])   # its path through the surface: a hit (R deep)
+            scene.add_particles([aim - 0.3 * direction], [speed * direction], radius=R)
+            sim = ws.Simulator(scene, integrator="symplectic_euler", device="cpu")
+            worst = np.inf
+            for _ in range(40):
+                sim.step(H, substeps=1)
+                x = sim.state.particle_x.numpy()[0]
+                worst = min(worst, gap_to(name, x, side) if speed == 10.0 else np.inf)
+            assert worst >= -SLACK, (side, speed, worst)
+            assert side * (x[1] - 0.5) > 0.0, (side, speed, x)
+            assert side * sim.state.particle_v.numpy()[0, 1] > 0.0
+
+
 @pytest.mark.parametrize("speed", [10.0, 1.0e6])
 def test_open_surface_holds_particles_on_both_sides(speed):
     """An open (double-sided) surface: a particle from above stops above it, one from below stops below it."""
@@ -156,6 +194,24 @@ def test_dropped_particle_without_restitution_stays_on_top(integrator, h):
     assert np.linalg.norm(sim.state.particle_v.numpy()[0]) < 1e-9
 
 
+@pytest.mark.parametrize("integrator, h", [("rk4", 1.0 / 60.0), ("implicit_euler", 1.0 / 60.0),
+                                           ("symplectic_euler", 1.0 / 60.0), ("symplectic_euler", H)])
+def test_bouncing_particle_comes_to_rest(integrator, h):
+    """e = 0.5: it bounces lower and lower and then rests at its contact height with no velocity (an approach no
+    faster than twice the step's own change of velocity, g h, is resting contact: no jitter of e g h a step)."""
+    scene = ws.Scene(precision="float64")
+    scene.add_collider(ws.Box((0.5, 0.005, 0.5)), position=(0.0, 0.5, 0.0), restitution=0.5, friction=0.5)
+    scene.add_particles([[0.0, 1.5, 0.0]], radius=R)
+    sim = ws.Simulator(scene, integrator=integrator, device="cpu")
+    heights = []
+    for _ in range(round(4.0 / h)):
+        sim.step(h, substeps=1)
+        heights.append(sim.state.particle_x.numpy()[0, 1] - 0.505 - R)
+    assert min(heights) >= -SLACK
+    assert np.abs(heights[-round(1.0 / h):]).max() <= SLACK
+    assert np.linalg.norm(sim.state.particle_v.numpy()[0]) == 0.0
+
+
 @pytest.mark.parametrize("name", ["box", "open mesh", "closed mesh"])
 def test_sliding_across_a_mesh_keeps_its_speed(name):
     """A particle sliding at 3 m/s (friction 0, e = 0.5, gravity) over a box, a divided open surface of 128
@@ -174,6 +230,41 @@ def test_sliding_across_a_mesh_keeps_its_speed(name):
         heights.append(sim.state.particle_x.numpy()[0, 1] - top - R)
     assert np.abs(heights).max() <= SLACK
     np.testing.assert_allclose(sim.state.particle_x.numpy()[0, [0, 2]], [0.6, 0.17], atol=1e-4)
+
+
+def test_particle_thrown_into_a_corner_of_two_thin_boxes_stays_in_front_of_both():
+    """A 1 cm floor and a 1 cm wall (two box colliders meeting at a corner), a particle thrown at 30 m/s into the
+    corner (1/60 s: half a metre a step) with e = 0.3, mu = 0.5, gravity: at every step it is R clear of both,
+    on their near sides, and it ends at rest on the floor."""
+    scene = ws.Scene(precision="float64")
+    scene.add_collider(ws.Box((5.0, 0.005, 5.0)), position=(4.0, 0.0, 0.0), restitution=0.3, friction=0.5)
+    scene.add_collider(ws.Box((0.005, 1.0, 5.0)), position=(-1.0, 1.0, 0.0), restitution=0.3, friction=0.5)
+    scene.add_particles([[0.5, 0.5, 0.0]], [[-30.0, -20.0, 1.0]], radius=R)
+    sim = ws.Simulator(scene, integrator="symplectic_euler", device="cpu")
+    for _ in range(240):
+        sim.step(1.0 / 60.0, substeps=1)
+        x = sim.state.particle_x.numpy()[0]
+        assert x[1] >= 0.005 + R - SLACK and x[0] >= -0.995 + R - SLACK, x
+    assert np.linalg.norm(sim.state.particle_v.numpy()[0]) < 1e-9
+
+
+def test_kill_on_contact_particles_die_at_a_thin_box():
+    """An emitter's kill-on-contact particles shot down at 50 m/s onto a 1 cm box: they die there (the sweep
+    flags the hit) and none lives below the box. (Kill-on-contact flags exist where the scene has a plane: the
+    ground, 10 m below, here.)"""
+    scene = ws.Scene(gravity=(0.0, -G, 0.0), precision="float64")
+    scene.add_plane(normal=(0.0, 1.0, 0.0), offset=-10.0)
+    scene.add_collider(ws.Box((1.0, 0.005, 1.0)), position=(0.0, 0.5, 0.0))
+    scene.add_emitter(rate=200.0, lifetime=2.0, position=(0.0, 1.0, 0.0), direction=(0.0, -1.0, 0.0), spread=5.0,
+                      speed=50.0, size=0.005, kill_on_contact=True)
+    sim = ws.Simulator(scene, integrator="symplectic_euler", device="cpu")
+    for _ in range(60):
+        sim.step(1.0 / 120.0, substeps=1)
+        arrays = sim.frame_arrays()
+        alive = arrays["particle_alive"].astype(bool)
+        assert np.all(arrays["particle_x"][alive, 1] > 0.5)
+    stats = sim.emitter_stats()[0]
+    assert stats["born"] > 50 and stats["live"] <= 2
 
 
 def table_cloth(resolution, speed=0.0, thickness=0.02):

@@ -5,29 +5,34 @@ Against static colliders a particle's motion over the step is swept (continuous 
 at the end of each step, particles are projected out of every shape (resting contact, and moving bodies, which
 are not swept: a body moves over the step, and the detection's hash grid finds the bodies near the end point).
 
-The sweep. A particle of radius r moves over a step of h seconds from its start position to its end position
-(the integrator's), taken as the straight chord between them, with the velocity going linearly from the start
-velocity to the end one (constant acceleration a = (v_end - v_start) / h, as for the planes). Each piece of
-collision geometry is convex: a box, sphere, capsule or cylinder, or one triangle of a mesh (a mesh's triangles
-come from its BVH, those whose boxes meet the chord's box grown by r). The gap f(t) = distance(chord(t)) - r
-of a convex piece is a convex function of the chord parameter t, so Newton's method from t = 0 never steps
-past its first root: that root (within TOL r) is the particle's first touch, found in a few steps. The touch
-is a hit when the path goes on to penetrate the piece by SKIN r (half the radius, found the same way); a path
-that stays shallower (a particle sliding or resting on the piece, or passing an internal edge of a mesh) is
-left to the end-of-step projection, and its centre stays at least r / 2 from the surface, so it never reaches
-the far side. Both marches stop after MAX_MARCH steps: the first then touches at its last point (known clear),
-the second counts as a hit. Triangles are unsigned distances, so an open surface (``MeshShape(solid=False)``)
-holds particles on both of its sides; a particle whose centre starts a sweep inside a solid shape (a box, ...,
-a closed mesh) is left to the projection.
+The sweep. A particle of radius r moves over a step of h seconds from its start position to its end position (the
+integrator's), taken as the straight chord between them, run through at an even pace over the step. Each piece of
+collision geometry is convex: a box, sphere, capsule or cylinder, or one triangle of a mesh (a mesh's triangles come
+from its BVH, those whose boxes meet the chord's box grown by r). The gap f(t) = distance(chord(t)) - r of a convex
+piece is a convex function of the chord parameter t, so Newton's method from t = 0 never steps past its first root:
+that root (within TOL r) is the particle's first touch, found in a few steps. The touch is a hit when the path goes
+on to penetrate the piece by SKIN r (half the radius, found the same way); a path that stays shallower (a particle
+sliding or resting on the piece, or passing an internal edge of a mesh) is left to the end-of-step projection, and
+its centre stays at least r / 2 from the surface, so it never reaches the far side. So a chord shorter than SKIN r -
+2 TOL r cannot hit from a start outside, and is not swept (a particle resting, or slow for its radius and the step).
+Both marches stop after MAX_MARCH steps: the first then touches at its last point (known clear), the second counts
+as a hit. Triangles are unsigned distances, so an open surface (``MeshShape(solid=False)``) holds particles on both
+of its sides; a particle whose centre starts a sweep inside a solid shape (a box, ..., a closed mesh) is left to the
+projection.
 
 At the earliest hit over all static colliders the particle is placed at distance r from the piece on its near
-side, and its velocity there is reflected like a plane's (kernels.planes.plane_response): an impact reflects
-the normal velocity with restitution e and slows the sliding by Coulomb friction (mu times the normal impulse,
-never reversing); a touch without approach speed is resting contact, the surface taking up the normal
-acceleration for the rest of the step with friction from that support. e and mu: the collider's, averaged with
-the particle's own (planes.contact_material). It then travels the rest of the step, which is swept again; after
-MAX_EVENTS hits a further hit stops it at that contact (the inward normal velocity removed). So no particle
-ends a step past a static shape or more than r / 2 into it, and the projection removes what is left.
+side. Its velocity there is that of the path of constant acceleration through the chord's ends with the end
+velocity (rk4's and Verlet's own path under constant forces; for implicit and symplectic Euler, whose positions
+move by h v1, the end velocity v1 throughout: their start velocity is not what moved them). The response is a
+change of velocity, applied to the end velocity and to the rest of the chord alike (so x1 = x0 + h v1 still
+holds for the Euler methods): an impact reflects the normal velocity with restitution e and slows the sliding by
+Coulomb friction (mu times the normal impulse, never reversing); an approach no faster than twice the step's own
+normal change of velocity (gravity's g h) is resting contact, with e = 0, as for bodies (``bounce_speed``).
+Neither the rest nor the end velocity then goes into the surface, and friction acts with the normal velocity
+that took away. e and mu: the collider's, averaged with the particle's own (planes.contact_material). It then
+travels the rest of the step, which is swept again; after MAX_EVENTS hits a further hit stops it at that contact
+(the inward normal velocity removed). So no particle ends a step past a static shape or more than r / 2 into it,
+and the projection, with the same rule for resting contact, removes what is left.
 
 Private: every kernel and function here is for the simulator's own use (the particle-shape pass);
 their arguments may change between releases. ``__all__`` is empty.
@@ -61,28 +66,30 @@ def collide_particles(geoms: Geoms, grid: wp.uint64, static_count: int, max_reac
                       h: Any, touched_out: wp.array(dtype=wp.int32)):
     """Continuous collision of particles with the static colliders over a step of h [s] (the module's sweep),
     then push_particles' end-of-step projection out of every shape, bodies too, with open surfaces held on both
-    sides. x_start [m], v_start [m/s]: the step's start; x [m], v [m/s]: its end, corrected in place;
-    double_sided: per static collider, 1 for an open surface (unsigned distances), else 0; the rest as
-    push_particles. Pinned particles are skipped."""
+    sides and approaches no faster than twice the step's own normal change of velocity resting (restitution 0).
+    x_start [m], v_start [m/s]: the step's start; x [m], v [m/s]: its end, corrected in place; double_sided: per
+    static collider, 1 for an open surface (unsigned distances), else 0; the rest as push_particles. Pinned
+    particles are skipped."""
     i = wp.tid()
     if material.inv_mass[i] == h * type(h)(0.0):
         return
+    change = v[i] - v_start[i]   # the step's own change of velocity: slower approaches than twice it rest
     if static_count > 0:
-        xe, ve, touched = sweep_particle(geoms, static_count, double_sided, i, x_start[i], v_start[i], x[i], v[i],
+        xe, ve, touched = sweep_particle(geoms, static_count, double_sided, i, x_start[i], change, x[i], v[i],
                                          material, h)
         if touched != 0:
             x[i] = xe
             v[i] = ve
             if touched_out.shape[0] > 0:
                 touched_out[i] = 1
-    project_particle(geoms, grid, static_count, max_reach, double_sided, bodies, mass, x, v, material, i,
+    project_particle(geoms, grid, static_count, max_reach, double_sided, bodies, mass, x, v, material, i, change,
                      touched_out)
 
 
 @wp.kernel
 def push_particles(geoms: Geoms, grid: wp.uint64, static_count: int, max_reach: wp.array(dtype=wp.float32),
-                   double_sided: wp.array(dtype=wp.int32), bodies: Any, mass: Any, x: wp.array(dtype=Any), v: wp.array(dtype=Any), material: Any,
-                   touched_out: wp.array(dtype=wp.int32)):
+                   double_sided: wp.array(dtype=wp.int32), bodies: Any, mass: Any, x: wp.array(dtype=Any),
+                   v: wp.array(dtype=Any), material: Any, touched_out: wp.array(dtype=wp.int32)):
     """One-way contact of particles with bodies and static colliders at the end of the step: a particle
     inside a shape is moved to its surface, its normal velocity relative to the surface reflected with
     restitution e and its sliding slowed by Coulomb friction (mu times the normal impulse per unit mass,
@@ -94,15 +101,19 @@ def push_particles(geoms: Geoms, grid: wp.uint64, static_count: int, max_reach: 
     i = wp.tid()
     if material.inv_mass[i] == type(material.inv_mass[i])(0.0):
         return
-    project_particle(geoms, grid, static_count, max_reach, double_sided, bodies, mass, x, v, material, i, touched_out)
+    project_particle(geoms, grid, static_count, max_reach, double_sided, bodies, mass, x, v, material, i,
+                     x[i] * type(material.inv_mass[i])(0.0), touched_out)
 
 
 @wp.func
 def project_particle(geoms: Geoms, grid: wp.uint64, static_count: int, max_reach: wp.array(dtype=wp.float32),
                      double_sided: wp.array(dtype=wp.int32), bodies: Any, mass: Any, x: wp.array(dtype=Any),
-                     v: wp.array(dtype=Any), material: Any, i: int, touched_out: wp.array(dtype=wp.int32)):
+                     v: wp.array(dtype=Any), material: Any, i: int, change: Any,
+                     touched_out: wp.array(dtype=wp.int32)):
     """push_particles' work for free particle i; double_sided: per static collider, 1 for an open surface held
-    on both sides (unsigned distance), or an empty array (every surface a terrain)."""
+    on both sides (unsigned distance), or an empty array (every surface a terrain); change [m/s]: the step's own
+    change of velocity, an approach no faster than twice its normal part is resting contact (restitution 0;
+    zero: restitution at any approach, as push_particles)."""
     zero = type(material.inv_mass[i])(0.0)
     one = type(material.inv_mass[i])(1.0)
     r = material.radius[i]
@@ -110,13 +121,13 @@ def project_particle(geoms: Geoms, grid: wp.uint64, static_count: int, max_reach
         both = int(0)
         if double_sided.shape[0] > 0:
             both = double_sided[s]
-        push_particle_from(geoms, geoms.body_count + s, both, bodies, mass, x, v, r, material, i, touched_out, zero,
-                           one)
+        push_particle_from(geoms, geoms.body_count + s, both, bodies, mass, x, v, r, material, i, change, touched_out,
+                           zero, one)
     if geoms.body_count > 0:
         query = wp.hash_grid_query(grid, wp.vec3f(x[i]), float(r) + max_reach[0])
         b = int(0)
         while wp.hash_grid_query_next(query, b):
-            push_particle_from(geoms, b, 0, bodies, mass, x, v, r, material, i, touched_out, zero, one)
+            push_particle_from(geoms, b, 0, bodies, mass, x, v, r, material, i, change, touched_out, zero, one)
 
 
 @wp.func
@@ -135,8 +146,8 @@ def surface_distance(mesh: wp.uint64, p: wp.vec3f, max_dist: wp.float32):
 
 @wp.func
 def push_particle_from(geoms: Geoms, g: int, double_sided: int, bodies: Any, mass: Any, x: wp.array(dtype=Any),
-                       v: wp.array(dtype=Any), r: Any, material: Any, i: int, touched_out: wp.array(dtype=wp.int32),
-                       zero: Any, one: Any):
+                       v: wp.array(dtype=Any), r: Any, material: Any, i: int, change: Any,
+                       touched_out: wp.array(dtype=wp.int32), zero: Any, one: Any):
     body = is_body(g, geoms.body_count)
     local = wp.quat_rotate_inv(geoms.q[g], wp.vec3f(x[i]) - geoms.x[g]) + geoms.com[g]   # statics: float32 pose
     if body:
@@ -164,6 +175,8 @@ def push_particle_from(geoms: Geoms, g: int, double_sided: int, bodies: Any, mas
     vn = wp.dot(rel, n)
     if vn < zero:
         e = contact_material(type(r)(geoms.restitution[g]), material.restitution, i)
+        if -vn <= type(r)(2.0) * wp.abs(wp.dot(change, n)):
+            e = zero   # resting: no faster than the step's own change (gravity's g h)
         mu = contact_material(type(r)(geoms.friction[g]), material.friction, i)
         tangential = rel - n * vn
         rel = coulomb_friction(tangential, -(one + e) * vn * mu) - n * (e * vn)
@@ -174,9 +187,10 @@ def push_particle_from(geoms: Geoms, g: int, double_sided: int, bodies: Any, mas
 
 @wp.func
 def sweep_particle(geoms: Geoms, static_count: int, double_sided: wp.array(dtype=wp.int32), i: int, xs: Any,
-                   vs: Any, xe: Any, ve: Any, material: Any, h: Any):
-    """collide_particles' sweep for free particle i going over h [s] from (xs [m], vs [m/s]) to (xe, ve): the
-    corrected end (x [m], v [m/s]) and 1 if it hit a static collider, else 0 (and (xe, ve))."""
+                   change: Any, xe: Any, ve: Any, material: Any, h: Any):
+    """collide_particles' sweep for free particle i going over h [s] from xs [m] to (xe [m], ve [m/s]), its
+    velocity changed by ``change`` [m/s] over the step: the corrected end (x [m], v [m/s]) and 1 if it hit a static
+    collider, else 0 (and (xe, ve))."""
     zero = h * type(h)(0.0)
     one = type(h)(1.0)
     r = material.radius[i]
@@ -188,6 +202,8 @@ def sweep_particle(geoms: Geoms, static_count: int, double_sided: wp.array(dtype
     span = h
     touched = int(0)
     for event in range(MAX_SWEEPS):
+        if wp.length(pb - pa) < skin - type(h)(2.0) * tol:
+            break   # too short to go skin deep from a start outside: nothing to sweep (the projection's)
         frac, f, n, g = first_hit(geoms, static_count, double_sided, pa, pb - pa, r, tol, skin)
         if g < 0:
             break
@@ -208,6 +224,8 @@ def sweep_particle(geoms: Geoms, static_count: int, double_sided: wp.array(dtype
         e = contact_material(type(r)(geoms.restitution[g]), material.restitution, i)
         mu = contact_material(type(r)(geoms.friction[g]), material.friction, i)
         remaining = span * (one - frac)
+        if -wp.dot(vc, n) <= type(h)(2.0) * wp.abs(wp.dot(change, n)):
+            e = zero   # resting: an approach no faster than the step's own change (gravity's g h) does not bounce
         rest, vb = respond(vc, (pb - pa) * (one - frac), vb, n, remaining, e, mu, h)
         pa = pc
         pb = pc + rest
@@ -217,14 +235,14 @@ def sweep_particle(geoms: Geoms, static_count: int, double_sided: wp.array(dtype
 
 @wp.func
 def respond(vc: Any, rest: Any, vb: Any, n: Any, remaining: Any, e: Any, mu: Any, h: Any):
-    """The response to a hit with unit normal n [1] at the velocity vc [m/s], applied as a change of velocity to
-    the motion still to go: the chord's rest [m] over the remaining [s] of the step and the end velocity vb [m/s]
-    (so that an integrator's own relation of the two, x1 = x0 + h v1 for implicit and symplectic Euler, is kept).
-    An impact (approach faster than 1e-6 of the speed and of the normal velocity change to the end) reflects the
-    normal velocity with restitution e [1] and slows the sliding by Coulomb friction mu [1] times the normal
-    impulse, never reversing it; then, impact or not, neither the rest nor the end velocity goes into the surface
-    (resting contact), and friction acts with the normal velocity that takes away. Returns (the new rest [m], the
-    new end velocity [m/s])."""
+    """The response to a hit with unit normal n [1] at the velocity vc [m/s], applied as a change of velocity to the
+    motion still to go: the chord's rest [m] over the remaining [s] of the step and the end velocity vb [m/s]
+    (so that an integrator's own relation of the two, x1 = x0 + h v1 for implicit and symplectic Euler, is
+    kept). An impact (approach faster than 1e-6 of the speed and of the normal velocity change to the end)
+    reflects the normal velocity with restitution e [1] (0 for resting contact, the caller's choice) and slows
+    the sliding by Coulomb friction mu [1] times the normal impulse, never reversing it; then, impact or not,
+    neither the rest nor the end velocity goes into the surface (resting contact), and friction acts with the
+    normal velocity that takes away. Returns (the new rest [m], the new end velocity [m/s])."""
     zero = h * type(h)(0.0)
     one = type(h)(1.0)
     vn = wp.dot(vc, n)
