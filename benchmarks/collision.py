@@ -243,10 +243,7 @@ def bench_size(n: int, device, args, newton) -> dict:
         profile_steps = args.profile_steps
         kernels = {}
         if profile_steps:
-            profile.enabled = True
-            sim.step(args.dt, steps=profile_steps)
-            profile.enabled = False
-            kernels = profile.per_step(profile_steps)
+            kernels = profile.steps(sim, args.dt, profile_steps)
     except ws.SimulationDiverged as error:
         print(f"  {phase}: {error}", flush=True)
         result.update(error={"phase": phase, "type": "SimulationDiverged", "message": str(error),

@@ -137,6 +137,16 @@ class KernelProfile:
         self.enabled = self._enabled
         return sim
 
+    def steps(self, sim, dt: float, steps: int) -> dict:
+        """``sim.step(dt, steps=steps)`` measured (this profile enabled only for it): per_step(steps)."""
+        self.stats.clear()
+        self.enabled = True
+        try:
+            sim.step(dt, steps=steps)
+        finally:
+            self.enabled = False
+        return self.per_step(steps)
+
     def per_step(self, steps: int) -> dict:
         return {key: {"launches": launches / steps, "ms": 1e3 * seconds / steps, "bytes": nbytes / steps}
                 for key, (launches, seconds, nbytes) in self.stats.items()}

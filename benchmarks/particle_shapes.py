@@ -161,12 +161,7 @@ def bench_case(case: str, label: str, scene: ws.Scene, integrator: str, dt: floa
     row = {"case": case, "label": label, "particles": sims["after"].model.particle_count, "integrator": integrator,
            "dt": dt, "settle_steps": settle, "steps": steps, "repeats": repeats, "profile_steps": profile_steps}
     for variant, sim in sims.items():
-        profile = profiles[variant]
-        profile.enabled = True
-        sim.step(dt, steps=profile_steps)
-        profile.enabled = False
-        sim.check()
-        kernels = profile.per_step(profile_steps)
+        kernels = profiles[variant].steps(sim, dt, profile_steps)
         total = sum(entry["ms"] for entry in kernels.values())
         pass_ms = kernels.get(PASS_KERNELS[variant], {}).get("ms", 0.0)
         ms = 1e3 * statistics.median(seconds[variant]) / steps

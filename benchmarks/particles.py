@@ -181,11 +181,7 @@ def bench_emitter(live: int, lifetime: float, device: str, steps: int, repeats: 
     after = sim.emitter_stats()[0]
 
     profile_steps = max(1, steps // 2)
-    profile.enabled = True
-    sim.step(DT, steps=profile_steps)
-    profile.enabled = False
-    sim.check()
-    kernels = profile.per_step(profile_steps)
+    kernels = profile.steps(sim, DT, profile_steps)
     kernel_ms = sum(k["ms"] for k in kernels.values())
     for entry in kernels.values():
         entry["share"] = entry["ms"] / kernel_ms
