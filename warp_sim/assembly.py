@@ -21,6 +21,7 @@ from .passes import (
     BodyContacts,
     ComponentProjection,
     EmitterPools,
+    Joints,
     KinematicBodies,
     ParticleShapeContacts,
     PlaneImpacts,
@@ -38,7 +39,8 @@ class Assembly:
     """What a Simulator runs: the model, the user's controls, the ODE right-hand side, the solver and the passes.
 
     passes: every after-step pass, in the order they run; body_contacts, particle_shapes, impacts,
-    strain_limiter, emitters: the same passes by name (None where absent); fused: the fused step that replaces the
+    strain_limiter, emitters, joints: the same passes by name (None where absent; joints run inside body_contacts
+    where there is one); fused: the fused step that replaces the
     solver and the plane impulses (None: the generic path), and after_fused: the passes that run after it.
     """
     model: Model
@@ -51,6 +53,7 @@ class Assembly:
     impacts: PlaneImpacts | None
     strain_limiter: StrainLimiter | None
     emitters: EmitterPools | None
+    joints: Joints | None = None
     fused: FusedParticleStep | None = None
     after_fused: list[Pass] | None = None
 
@@ -90,7 +93,8 @@ def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: 
     solver = make_integrator(integrator)
 
     strain_limiter = StrainLimiter(model, scene) if any(m.max_stretch is not None for m in scene.meshes) else None
-    body_contacts = (BodyContacts(model, detection, solver.position_response, max_step=contact_step)
+    joints = Joints(model, scene, solver.position_response) if scene.joints else None
+    body_contacts = (BodyContacts(model, detection, solver.position_response, max_step=contact_step, joints=joints)
                      if impulse and bodies_collide else None)
     particle_shapes = (ParticleShapeContacts(model, geometry, detection, scene.colliders) if particles_meet_shapes
                        else None)
@@ -100,14 +104,16 @@ def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: 
     # in this order: a particle squeezed between a body and the ground ends on the ground, not below it
     kinematic = KinematicBodies(model, scene) if any(body.track is not None for body in scene.bodies) else None
     # kinematic bodies are set before the contacts (which see them move) and after (which pushed them a little)
-    passes = _present([kinematic, strain_limiter, body_contacts, particle_shapes, impacts, projection, emitters,
-                       kinematic])
+    # joints are rows of the body contacts' solve where there is one, else a pass of their own
+    alone = joints if body_contacts is None else None
+    passes = _present([kinematic, strain_limiter, alone, body_contacts, particle_shapes, impacts, projection,
+                       emitters, kinematic])
     if emitters is not None and emitters.touched is not None:   # kill-on-contact emitters read the contact flags
         for contact_pass in _present([impacts, particle_shapes]):
             contact_pass.touched = emitters.touched
     solver.bind(dynamics)   # last: a solver instance stays unbound (reusable) if anything above refused the scene
     parts = Assembly(model, control, dynamics, solver, passes, body_contacts, particle_shapes, impacts,
-                     strain_limiter, emitters)
+                     strain_limiter, emitters, joints)
     if fused:
         parts.fused, parts.after_fused = fused_step(parts)
     return parts

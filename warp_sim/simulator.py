@@ -134,6 +134,7 @@ class Simulator(Persistent):
         self.impacts = parts.impacts
         self.strain_limiter = parts.strain_limiter
         self.emitters = parts.emitters
+        self.joints = parts.joints
         self.state = self.dynamics.initial_state(scene)
         self._next = self.dynamics.new_state()
         if self.emitters is not None:

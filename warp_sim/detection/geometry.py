@@ -149,10 +149,30 @@ class ContactGeometry:
         g.plane_offset = array([p.offset for p in planes], wp.float32)
         g.plane_restitution = array([p.restitution for p in planes], wp.float32)
         g.plane_friction = array([p.friction for p in planes], wp.float32)
+        g.skip_start, g.skip = (array(values, wp.int32) for values in skipped_pairs(scene))
         g.body_count = self.body_count
         self.geoms = g
         self.max_reach = wp.zeros(2, dtype=wp.float32, device=device)
         self.body_bound = max((b.shape.bounding_radius for b in scene.bodies), default=0.0)
+
+
+def skipped_pairs(scene) -> tuple[np.ndarray, np.ndarray]:
+    """(per body and one more, where its entries start; the geoms j > i each body does not collide with): the two
+    bodies of every joint that does not say ``collide``, a static collider it is anchored to included."""
+    B = scene.body_count
+    others: list[set] = [set() for _ in range(B)]
+    for joint in scene.joints:
+        if joint.collide:
+            continue
+        parent = joint.parent if joint.parent >= 0 else (B + joint.parent_collider if joint.parent_collider >= 0
+                                                         else -1)
+        if parent >= 0:
+            low, high = sorted((parent, joint.child))
+            others[low].add(high)
+    counts = np.array([len(s) for s in others], np.int64)
+    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+    flat = np.array([g for s in others for g in sorted(s)], np.int32)
+    return starts, flat
 
 
 def _origin_bound(shape) -> float:

@@ -28,6 +28,14 @@ structs of one precision (``of(wp.float64).Springs()``); each field's dtype and 
   field's grid), nodes (int32, the grid's nodes per axis), offset (int32, the grid's first node in the potential
   array turbulence_forces takes)
 - ImpulseTable (warm starting, open addressing): used (int32), keys (vec2i), cells (vec3i), n [N s], t [N s]
+- Joints (one row per joint, in colour order; passes.joints): ids (vec2i: parent, -1 for the world, and child),
+  anchor_p, anchor_c [m] and frame_p, frame_c (quat) in each body's frame (the world's for -1); lin_mode,
+  ang_mode (vec3i per joint-frame axis: 0 free, 1 locked, 2 limited), lin_lower, lin_upper [m], ang_lower,
+  ang_upper [rad]; cone [rad] (< 0: none), dist_min, dist_max [m] (< 0: none); drive_lin, drive_ang (vec3i per
+  axis: 0 none, 1 force, 2 acceleration), their targets [m, rad], speeds [m/s, rad/s], stiffness [N/m, N m/rad],
+  damping [N s/m, N m s/rad] and max [N, N m]; break_force [N], break_torque [N m] (< 0: never), enabled (int32:
+  1 simulated, 0 broken or disabled); the step's accumulated impulses per joint-frame axis (warm-started from
+  the last step's): lam_lin [N s], lam_ang [N m s], lam_drive_lin, lam_drive_ang, lam_cone, lam_dist
 """
 import types
 
@@ -56,6 +64,15 @@ LAYOUTS = {
     "Vortices": {"center": "vec3", "axis": "vec3", "strength": "scalar", "core_radius": "scalar"},
     "Turbulences": {"strength": "scalar", "inv_period": "scalar", "nodes": wp.int32, "offset": wp.int32},
     "ImpulseTable": {"used": wp.int32, "keys": wp.vec2i, "cells": wp.vec3i, "n": "scalar", "t": "vec3"},
+    "Joints": {"ids": wp.vec2i, "anchor_p": "vec3", "anchor_c": "vec3", "frame_p": "quat", "frame_c": "quat",
+               "lin_mode": wp.vec3i, "ang_mode": wp.vec3i, "lin_lower": "vec3", "lin_upper": "vec3",
+               "ang_lower": "vec3", "ang_upper": "vec3", "cone": "scalar", "dist_min": "scalar",
+               "dist_max": "scalar", "drive_lin": wp.vec3i, "drive_ang": wp.vec3i, "lin_target": "vec3",
+               "ang_target": "vec3", "lin_speed": "vec3", "ang_speed": "vec3", "lin_stiffness": "vec3",
+               "ang_stiffness": "vec3", "lin_damping": "vec3", "ang_damping": "vec3", "lin_max": "vec3",
+               "ang_max": "vec3", "break_force": "scalar", "break_torque": "scalar", "enabled": wp.int32,
+               "lam_lin": "vec3", "lam_ang": "vec3", "lam_drive_lin": "vec3", "lam_drive_ang": "vec3",
+               "lam_cone": "scalar", "lam_dist": "scalar"},
 }
 
 

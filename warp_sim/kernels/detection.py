@@ -54,6 +54,8 @@ class Geoms:
     plane_offset: wp.array(dtype=wp.float32)
     plane_restitution: wp.array(dtype=wp.float32)
     plane_friction: wp.array(dtype=wp.float32)
+    skip_start: wp.array(dtype=wp.int32)     # per body and one more: where its pairs left out start in ``skip``
+    skip: wp.array(dtype=wp.int32)           # the geoms a body does not collide with (jointed ones), j > i
     body_count: int
 
 
@@ -142,12 +144,21 @@ def gather_poses(start: Any, end: Any, margin: float, geoms: Geoms, max_reach: w
 
 
 @wp.func
+def skipped(geoms: Geoms, i: int, g: int):
+    """Whether body i and geom g > i are left out of collision (the two bodies of a joint, unless it collides)."""
+    for k in range(geoms.skip_start[i], geoms.skip_start[i + 1]):
+        if geoms.skip[k] == g:
+            return True
+    return False
+
+
+@wp.func
 def static_pairs(geoms: Geoms, i: int, static_reach: float, static_count: int, pairs: ContactBuffer):
     """Candidate pairs of body i with the static colliders and planes it may reach (static_reach [m])."""
     x = geoms.x[i]
     for s in range(static_count):
         g = geoms.body_count + s
-        if wp.length(geoms.x[g] - x) <= static_reach + geoms.bound[g]:
+        if wp.length(geoms.x[g] - x) <= static_reach + geoms.bound[g] and not skipped(geoms, i, g):
             emit_pair(pairs, i, g)
     for k in range(geoms.plane_normal.shape[0]):
         if wp.dot(geoms.plane_normal[k], x) - geoms.plane_offset[k] <= static_reach:
@@ -166,7 +177,7 @@ def find_pairs(geoms: Geoms, grid: wp.uint64, static_count: int, max_reach: wp.a
     query = wp.hash_grid_query(grid, x, reach + max_reach[0])
     j = int(0)
     while wp.hash_grid_query_next(query, j):
-        if j > i and wp.length(geoms.x[j] - x) <= reach + geoms.reach[j]:
+        if j > i and wp.length(geoms.x[j] - x) <= reach + geoms.reach[j] and not skipped(geoms, i, j):
             emit_pair(pairs, i, j)
     static_pairs(geoms, i, reach + max_reach[1], static_count, pairs)
 
@@ -179,7 +190,7 @@ def find_all_pairs(geoms: Geoms, static_count: int, max_reach: wp.array(dtype=wp
     x = geoms.x[i]
     reach = geoms.reach[i]
     for j in range(i + 1, geoms.body_count):
-        if wp.length(geoms.x[j] - x) <= reach + geoms.reach[j]:
+        if wp.length(geoms.x[j] - x) <= reach + geoms.reach[j] and not skipped(geoms, i, j):
             emit_pair(pairs, i, j)
     static_pairs(geoms, i, reach + max_reach[1], static_count, pairs)
 

@@ -34,8 +34,8 @@ KINDS = {
     "bodies": "Bodies", "start": "Bodies", "end": "Bodies", "positions": "Bodies", "velocities": "Bodies",
     "rates": "Bodies", "mass": "BodyMass", "accumulated": "Wrench", "held": "Wrench", "planes": "Planes",
     "material": "ParticleMaterial", "work": "BodyVelocities", "collided": "BodyVelocities", "rows": "ContactRows",
-    "table": "ImpulseTable", "springs": "Springs", "attractors": "Attractors", "vortices": "Vortices",
-    "turbulences": "Turbulences",
+    "table": "ImpulseTable", "joints": "Joints", "springs": "Springs", "attractors": "Attractors",
+    "vortices": "Vortices", "turbulences": "Turbulences",
     # vectors (values and arrays)
     "x": "vec3", "v": "vec3", "force": "vec3", "x_start": "vec3", "v_start": "vec3", "a": "vec3", "rhs": "vec3",
     "dv": "vec3", "v0": "vec3", "v1": "vec3", "omega": "vec3", "gravity": "vec3", "wind": "vec3",

@@ -3,11 +3,12 @@ limiting, body contacts, particles against shapes, particles against planes, the
 pools, kinematic bodies again."""
 from .body_contacts import BodyContacts
 from .emitters import EmitterPools
+from .joints import Joints
 from .kinematic import KinematicBodies
 from .particle_shapes import ParticleShapeContacts
 from .plane_contacts import PlaneImpacts
 from .projection import ComponentProjection
 from .strain import StrainLimiter, colour_springs
 
-__all__ = ["BodyContacts", "EmitterPools", "KinematicBodies", "ParticleShapeContacts", "PlaneImpacts",
+__all__ = ["BodyContacts", "EmitterPools", "Joints", "KinematicBodies", "ParticleShapeContacts", "PlaneImpacts",
            "ComponentProjection", "StrainLimiter", "colour_springs"]

@@ -55,6 +55,8 @@ class BodyContacts(Pass):
     tolerance: a manifold's resting iterations stop once no update changes a contact velocity by more [m/s]
     relax: the share of a body-body overlap the projection removes per step [1] (all of it against statics)
     manifolds: the grouping and colouring (ContactManifolds)
+    joints: the scene's joints (passes.Joints) or None: rows of the same solve, swept after the body-body contact
+        colours and before the static ones in every resting and position sweep
     max_step: the longest step it takes [s] (Pass.max_step; the Simulator's contact_step, by default 1/120 s:
         the longest at which the default sweeps hold stacks and landing piles; None: no sub-steps)
     """
@@ -68,8 +70,12 @@ class BodyContacts(Pass):
     def __init__(self, model: Model, detection: Detection, position_response: float, slop: float = 1.0e-4,
                  bounce_speed: float | None = None, sweeps: tuple[int, int, int] = (8, 16, 4),
                  iterations: tuple[int, int, int] = (8, 2, 2), relax: float = 0.2, tolerance: float = 1.0e-4,
-                 max_step: float | None = None):
+                 max_step: float | None = None, joints=None):
         self.model = model
+        self.joints = joints
+        if joints is not None:
+            self.kernels = (*self.kernels, "joints")
+            self.capturable = False   # its uncaptured steps without contacts run the joints alone
         self.geometry = detection.geometry
         self.detection = detection
         self.manifolds = ContactManifolds(model, detection)
@@ -90,6 +96,8 @@ class BodyContacts(Pass):
         self.collided = blocks.fill(model.blocks.BodyVelocities, v=zeros(B, vec3), w=zeros(B, vec3),
                                     inv_inertia_world=self.work.inv_inertia_world, impact=self.work.impact,
                                     stamp=self.work.stamp)
+        # per body, 1 where a joint holds it: it drifts as symplectic Euler (contacts.finish_response)
+        self.drift = joints.drift if joints is not None else zeros(B, wp.int32)
         self._capacity = 0
         self._ensure(self.detection.contacts.capacity)
         self._recorded_sizes = None
@@ -136,6 +144,8 @@ class BodyContacts(Pass):
         count = self.detection.detect(start, end)
         if count == 0:
             self.table.used.zero_()   # nothing to warm-start from next step
+            if self.joints is not None:
+                self.joints.apply(start, end, t, h)
             return
         self._ensure(self.detection.contacts.capacity)
         threads = self.detection.threads()[1]
@@ -148,6 +158,7 @@ class BodyContacts(Pass):
         rows, work, table, geoms = self.rows, self.work, self.table, self.geometry.geoms
         mass = m.body_mass
         manifolds = self.manifolds
+        joints = self.joints
         manifolds.sort()
         slot = manifolds.slot
         m.launch(contact_kernels.load_velocities, B, [end.bodies, mass, work])
@@ -179,13 +190,23 @@ class BodyContacts(Pass):
                                                              work])
             self._sweep(m.launcher.prepare(contact_kernels.warm_start_manifolds, 1, [
                 manifolds.set, 0, rows, mass, work, manifolds.row_ids]), colours, 1)
+            if joints is not None:
+                joints.warm_start(start, mass, work)
             solve = m.launcher.prepare(contact_kernels.solve_manifolds, 1, [
                 manifolds.set, 0, contact_iterations, 0, T(self.tolerance), rows, mass, work, work.stamp])
-            for sweep in range(contact_sweeps):   # numbered after the collision sweeps, whose stamps they follow
-                solve.set(3, collision_sweeps + 1 + sweep)
-                self._sweep(solve, colours, 1)
+            for sweep in range(max(contact_sweeps, joints.velocity_sweeps if joints is not None else 0)):
+                number = collision_sweeps + 1 + sweep   # after the collision sweeps, whose stamps they follow
+                solve.set(3, number)
+                if joints is None:
+                    self._sweep(solve, colours, 1)
+                    continue
+                self._sweep(solve, colours[:body_colours], 1)
+                joints.velocity_sweep(start, mass, work, h, number)
+                self._sweep(solve, colours[body_colours:], 1)
+            if joints is not None:
+                joints.finish(h, t)
             m.launch(contact_kernels.finish_response, B, [T(h), T(self.position_response), mass, self.collided,
-                                                          work, end.bodies])
+                                                          work, start.bodies, end.bodies, self.drift])
             # positions: the body-body colours relaxed, the static ones in full, last
             project = m.launcher.prepare(contact_kernels.project_manifolds, 1, [
                 manifolds.set, 0, position_iterations, 0, rows, mass, T(self.slop), T(self.relax), end.bodies,
@@ -193,10 +214,12 @@ class BodyContacts(Pass):
             relax, full = T(self.relax), T(1.0)
             manifolds.quiet.zero_()      # every manifold is looked at in the first position sweep
             work.stamp.fill_(-1)
-            for sweep in range(position_sweeps):
+            for sweep in range(max(position_sweeps, joints.position_sweeps if joints is not None else 0)):
                 project.set(3, sweep)
                 project.set(7, relax)
                 self._sweep(project, colours[:body_colours], 1)
+                if joints is not None:
+                    joints.position_sweep(end, mass, work.stamp, sweep)
                 project.set(7, full)
                 self._sweep(project, colours[body_colours:], 1)
 

@@ -8,6 +8,7 @@ from ..util.rotations import quat_to_matrix
 from . import cloth, ranges, usd_reader, usd_writer
 from .emitters import make_emitter
 from .fields import Field
+from .joints import Joint, world_joint
 from .parts import Collider, ParticleGroup, Plane, RigidBody, SurfaceMesh
 from .revisions import Revised, changes
 from .shapes import MassProperties, Shape
@@ -67,6 +68,7 @@ class Scene(Revised):
         self.meshes: list[SurfaceMesh] = []     # cloths and soft bodies
         self.planes: list[Plane] = []
         self.colliders: list[Collider] = []     # static shapes: infinite mass, never move
+        self.joints: list[Joint] = []           # constraints between bodies (scene.joints)
         self._particles: dict[str, list[np.ndarray]] = {key: [] for key in (
             "position", "velocity", "mass", "radius", "pinned", "restitution", "friction")}
         self._springs: dict[str, list[np.ndarray]] = {key: [] for key in (
@@ -492,6 +494,26 @@ class Scene(Revised):
         width = {"position": 3, "orientation": 4, "momentum": 3, "angular_momentum": 3}.get(key)
         return np.array(values, dtype=np.float64).reshape((-1, width) if width else (-1,))
 
+    @changes
+    def add_joint(self, kind, parent, child, *, anchor, axis=(1.0, 0.0, 0.0), limits=None, drive=None,
+                  collide: bool = False, break_force: float | None = None, break_torque: float | None = None,
+                  orientation=None, name: str | None = None) -> int:
+        """Join body ``child`` to body ``parent`` (None: the world); returns the joint's index.
+
+        kind: "revolute" (a hinge about axis), "prismatic" (a slider along axis), "ball", "fixed", "distance",
+        or a ws.D6 (per-axis locks, limits and drives); anchor: the joint's point in world space at this moment
+        [m], or two (the parent's, the child's); axis: the joint axis in world space (or orientation, the joint
+        frame's world quaternion (x, y, z, w), for a D6); limits: (lower, upper) [rad] for a hinge, [m] for a
+        slider, (min, max) [m] for a distance joint (default: the anchors' distance now), the cone half-angle
+        [rad] for a ball; drive: a ws.Drive (SI) on a hinge or slider; collide: whether the two bodies still
+        collide; break_force [N] / break_torque [N m]: the joint breaks above them (None: never).
+        """
+        joint = world_joint(self, kind, parent, child, anchor=anchor, axis=axis, orientation=orientation,
+                            limits=limits, drive=drive, collide=collide, break_force=break_force,
+                            break_torque=break_torque, name=name)
+        self.joints.append(joint)
+        return len(self.joints) - 1
+
     # static colliders ----------------------------------------------------------
     @changes
     def add_collider(self, shape: Shape, position=(0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0),
@@ -557,4 +579,5 @@ class Scene(Revised):
 
     def __repr__(self) -> str:
         return (f"Scene({self.particle_count} particles, {self.spring_count} springs, {self.body_count} bodies, "
-                f"{len(self.colliders)} colliders, {len(self.planes)} planes, {self.precision})")
+                f"{len(self.colliders)} colliders, {len(self.joints)} joints, {len(self.planes)} planes, "
+                f"{self.precision})")
