@@ -115,7 +115,7 @@ def test_fused_path_compiles_only_the_fused_module_for_particles():
 @pytest.mark.slow   # seven scenes' modules loaded
 def test_the_modules_compiled_up_front_are_the_modules_launched(kind, path):
     """Simulator compiles sim.kernel_modules() together at its start (in parallel): exactly those it launches
-    (every kernel module of warp_sim.kernels is watched; the demo launches twelve of them)."""
+    (every kernel module of warp_sim.kernels is watched; the demo launches thirteen of them)."""
     result = probe(kind, path)
     assert set(result["declared"]) == kernels(result)
 

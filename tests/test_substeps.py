@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import warp_sim as ws
-from warp_sim.demo import demo_scene
+from warp_sim.demo import JOINT_STEP, demo_scene
 from warp_sim.solvers.stability import SAFETY
 from warp_sim.studies.frame_rate import FRAME_SCENES, frame_rate_row, holds
 
@@ -56,8 +56,9 @@ def test_a_stiff_cloth_holds_at_frame_rate_and_takes_the_substeps_theory_gives()
 
 def test_an_explicit_count_is_honoured_and_warns_once_when_too_few():
     """substeps=2 on the demo under rk4 takes exactly 2 pieces (the contact step's) and warns once, naming the
-    limit and the stable count; substeps=4 takes 4 and does not warn."""
-    sim = ws.Simulator(demo_scene(), integrator="rk4")
+    limit and the stable count; substeps=4 takes 4 and does not warn. (The demo's joint_step, as `warp-sim demo`
+    runs it: the default 1/480 s would split every piece into the joints' own.)"""
+    sim = ws.Simulator(demo_scene(), integrator="rk4", joint_step=JOINT_STEP)
     stable = sim.substeps(1 / 60)
     with pytest.warns(RuntimeWarning, match=rf"substeps=2 gives steps of 0.008333 s, longer than rk4's stable "
                                             rf"step on this scene, .* {stable} substeps of a 0.01667 s step would be "
@@ -130,7 +131,7 @@ def test_the_frame_rate_study_finds_auto_within_a_quarter_of_the_fewest_that_hol
 def test_run_warns_in_the_terms_of_its_own_count(tmp_path):
     """run(substeps=2) on the demo under rk4 warns about 2 substeps of a 1/60 s frame (not the 1 of each step it
     takes inside), with the count that would hold the frame."""
-    sim = ws.Simulator(demo_scene(), integrator="rk4")
+    sim = ws.Simulator(demo_scene(), integrator="rk4", joint_step=JOINT_STEP)
     stable = sim.substeps(1 / 60)
     with pytest.warns(RuntimeWarning, match=rf"substeps=2 gives steps of 0.008333 s, .* {stable} substeps of a "
                                             r"0.01667 s step would be stable"):

@@ -24,7 +24,7 @@ import warp as wp
 from . import cluster, studies
 from .core import compiling
 from .core.guards import SimulationDiverged
-from .demo import demo_scene
+from .demo import JOINT_STEP, demo_scene
 from .scene import Scene
 from .simulator import RunInterrupted, Simulator
 from .solvers import INTEGRATORS, RK45
@@ -258,7 +258,7 @@ def _wall_time(args) -> str:
 
 
 def _demo(args) -> int:
-    sim = Simulator(demo_scene(), integrator=_integrator(args), device=args.device)
+    sim = Simulator(demo_scene(), integrator=_integrator(args), device=args.device, joint_step=JOINT_STEP)
     print(f"warp-sim demo: {sim.scene!r} on {sim.device.alias}, {args.integrator}, "
           f"{args.seconds:g} s at {args.fps:g} fps x {_substeps_text(sim, args.substeps, args.fps)}", flush=True)
     path = sim.run(seconds=args.seconds, fps=args.fps, substeps=args.substeps, usd=args.out,
@@ -379,7 +379,8 @@ def build_parser() -> argparse.ArgumentParser:
     demo = commands.add_parser(
         "demo", help="simulate the demo scene and write it to a USD stage",
         description="Simulate particles bouncing on the ground, a spring chain hanging from a pinned "
-                    "particle, rigid bodies thrown tumbling into the air and a particle fountain, and write "
+                    "particle, rigid bodies thrown tumbling into the air, a chain of capsules on ball joints "
+                    "swinging from a pivot and a particle fountain, and write "
                     "the animation to a USD stage.")
     _run_options(demo, fps=60.0, out="demo.usdc")
     demo.set_defaults(run=_demo)

@@ -8,13 +8,13 @@ one holds), assuming that more substeps never hold worse.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
 from ..core.guards import SimulationDiverged
-from ..demo import demo_scene
+from ..demo import JOINT_STEP, demo_scene
 from ..scene import Scene
 from ..simulator import Simulator
 from ..solvers.stability import unchecked_steps
@@ -36,15 +36,17 @@ def benchmark_cloth(resolution: int) -> Scene:
 
 @dataclass(frozen=True)
 class FrameScene:
-    """One scene of the frame-rate cases: build() -> Scene, seconds [s] of each run, and its title."""
+    """One scene of the frame-rate cases: build() -> Scene, seconds [s] of each run, its title, and the Simulator
+    options it runs with (the demo's joint_step, as `warp-sim demo` runs it)."""
     name: str
     title: str
     build: Callable[[], Scene]
     seconds: float
+    options: dict = field(default_factory=dict)
 
 
 FRAME_SCENES = {scene.name: scene for scene in (
-    FrameScene("demo", "the demo scene (warp_sim.demo), 2 s", demo_scene, 2.0),
+    FrameScene("demo", "the demo scene (warp_sim.demo), 2 s", demo_scene, 2.0, {"joint_step": JOINT_STEP}),
     FrameScene("cloth_32", "the benchmark's 32 x 32 cloth, 1 s", lambda: benchmark_cloth(32), 1.0),
     FrameScene("cloth_64", "the benchmark's 64 x 64 cloth, 0.5 s", lambda: benchmark_cloth(64), 0.5),
     FrameScene("cloth_128", "the benchmark's 128 x 128 cloth, 0.25 s", lambda: benchmark_cloth(128), 0.25),
@@ -59,7 +61,7 @@ def holds(scene: FrameScene, integrator: str, substeps: int, device: str) -> boo
     start = built.particle_array("position")
     low, high = start.min(axis=0) - REACH, start.max(axis=0) + REACH
     with unchecked_steps():   # the warning that substeps are too few is what is being measured
-        sim = Simulator(built, integrator=integrator, device=device)
+        sim = Simulator(built, integrator=integrator, device=device, **scene.options)
         try:
             for _ in range(round(scene.seconds / FRAME)):
                 sim.step(FRAME, substeps=substeps)
@@ -77,7 +79,7 @@ def frame_rate_row(name: str, integrator: str, device: str) -> dict:
     hold, "ratio": auto / fewest, "probes": runs made}."""
     scene = FRAME_SCENES[name]
     with unchecked_steps():
-        auto = Simulator(scene.build(), integrator=integrator, device=device).substeps(FRAME)
+        auto = Simulator(scene.build(), integrator=integrator, device=device, **scene.options).substeps(FRAME)
     probes = 1
     high = auto
     while not holds(scene, integrator, high, device):   # auto fails: double until a count holds
