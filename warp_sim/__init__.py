@@ -10,6 +10,8 @@ from .scene import (
                     Box,
                     Capsule,
                     Cylinder,
+                    D6,
+                    Drive,
                     MassProperties,
                     MeshShape,
                     PointMasses,
@@ -39,6 +41,6 @@ from .util.version import __version__
 __all__ = ["Scene", "Simulator", "Model", "State", "Control", "SimulationDiverged", "AdaptiveStepFailed",
            "INTEGRATORS", "Integrator", "Euler", "Midpoint", "RK4", "SymplecticEuler", "VelocityVerlet",
            "ImplicitEuler", "RK45", "Shape", "Sphere", "Box", "Capsule", "Cylinder", "MeshShape", "PointMasses",
-           "MassProperties", "Ramp", "Attractor", "Vortex", "Turbulence", "RunInterrupted", "set_verbose", "sweep",
-           "SweepResult", "__version__"]
+           "MassProperties", "Drive", "D6", "Ramp", "Attractor", "Vortex", "Turbulence", "RunInterrupted",
+           "set_verbose", "sweep", "SweepResult", "__version__"]
 interrupts.release()   # the previous handlers back (the command keeps recording until its main)

@@ -63,7 +63,8 @@ def _present(parts):
 
 
 def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: float, contact_margin: float,
-             collisions: bool, contact_step: float | None = None, fused: bool = True) -> Assembly:
+             collisions: bool, contact_step: float | None = None, fused: bool = True,
+             joint_step: float | None = None) -> Assembly:
     """Build every part ``scene`` needs on ``device`` (arguments as Simulator's, checked there)."""
     model = Model(scene, device)
     control = Control(model)
@@ -93,9 +94,10 @@ def assemble(scene: Scene, device, integrator, contact: str, penalty_stiffness: 
     solver = make_integrator(integrator)
 
     strain_limiter = StrainLimiter(model, scene) if any(m.max_stretch is not None for m in scene.meshes) else None
-    joints = Joints(model, scene, solver.position_response) if scene.joints else None
-    body_contacts = (BodyContacts(model, detection, solver.position_response, max_step=contact_step, joints=joints)
-                     if impulse and bodies_collide else None)
+    joints = Joints(model, scene, solver.position_response, max_step=joint_step) if scene.joints else None
+    steps = [step for step in (contact_step, joints.max_step if joints is not None else None) if step is not None]
+    body_contacts = (BodyContacts(model, detection, solver.position_response, max_step=min(steps, default=None),
+                                  joints=joints) if impulse and bodies_collide else None)
     particle_shapes = (ParticleShapeContacts(model, geometry, detection, scene.colliders) if particles_meet_shapes
                        else None)
     impacts = PlaneImpacts(model) if impulse and particle_planes else None

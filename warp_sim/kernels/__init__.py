@@ -22,6 +22,7 @@ Topics:
 - ``contacts``: body contact response (time of impact, impulses, friction, warm starting, projection)
 - ``manifolds``: contacts grouped by pair, and the pairs coloured for the parallel Gauss-Seidel solve
 - ``particle_shapes``: particles pushed by bodies and static colliders
+- ``joints``: joint rows (points, axes, limits, PD drives, cones, distances), warm start, position projection, breaks
 - ``precisions`` (no kernels): registers each module's generic kernels at import; declares their overloads
   for the precision in use (a Model calls ``declare``)
 - ``guards``: detection of non-finite or runaway states
@@ -32,7 +33,7 @@ Topics:
 #: Simulator compiles a simulation's modules the longest first, so that no core is left alone with a long one at
 #: the end (sizes of the Python sources mislead: particle_shapes is small and compiles the shapes' distances).
 COMPILE_SECONDS = {
-    "detection": 3.59, "contacts": 3.17, "fields": 1.37, "particle_shapes": 1.31, "emitters": 0.84, "rigid": 0.61,
-    "manifolds": 0.54, "integrate": 0.52, "planes": 0.50, "fused": 0.49, "implicit": 0.41, "penalty": 0.39,
-    "cloth": 0.34, "guards": 0.23, "springs": 0.20, "particles": 0.13,
+    "joints": 4.53, "detection": 3.64, "contacts": 3.27, "particle_shapes": 2.56, "fields": 1.27, "emitters": 0.98,
+    "rigid": 0.83, "planes": 0.71, "manifolds": 0.64, "fused": 0.52, "integrate": 0.51, "implicit": 0.48,
+    "penalty": 0.47, "cloth": 0.36, "guards": 0.26, "springs": 0.22, "particles": 0.13,
 }

@@ -511,14 +511,13 @@ def finish_response(h: Any, position_response: Any, mass: Any, collided: Any, wo
     """Write the response into the end-of-step state. A collision impulse acts at the body's time of impact
     t, so the position moves by its velocity change times the rest of the step, (h - t); a contact impulse
     stands for a force over the whole step, so the position moves as the solver moves it for a force,
-    beta h times the velocity change (beta = Integrator.position_response; so a body at rest stays
-    exactly at rest). P = M v; L changes by the
-    impulses' moments, I(t) times the change of omega, and is then kept for the rest of the step.
+    beta h times the velocity change (beta = Integrator.position_response; a body at rest stays exactly at
+    rest). P = M v; L changes by the impulses' moments, I(t) times the change of omega.
 
-    A body with drift[i] = 1 (one held by a joint: passes.joints) moves instead as symplectic Euler moves it,
-    from the start of the step with the end velocities, x = x0 + h v1 and q = exp(h omega1) q0 (less a
-    collision's velocity change times t h, as above): constraint impulses with any other drift gain or lose
-    energy (a pendulum under rk4 swings 45 % wider in 10 s at 1/60 s); L = I(q) omega1."""
+    A body with drift[i] = 1 (held by a joint: passes.joints) moves instead as symplectic Euler moves it,
+    from the start of the step with the end velocities, x = x0 + h v1, q = exp(h omega1) q0 (less a
+    collision's velocity change times t h): constraint impulses with any other drift gain or lose energy
+    (a pendulum under rk4 swings 45 % wider in 10 s at 1/60 s); L = I(q) omega1."""
     i = wp.tid()
     one = type(h)(1.0)
     t = work.impact[i]
@@ -527,39 +526,33 @@ def finish_response(h: Any, position_response: Any, mass: Any, collided: Any, wo
     v0 = end.P[i] * mass.inv_mass[i]
     R0 = wp.quat_to_matrix(wp.normalize(end.q[i]))
     w0 = R0 * mass.inv_inertia[i] * wp.transpose(R0) * end.L[i]
+    end.P[i] = work.v[i] / mass.inv_mass[i]
     if drift[i] == 1:
-        shift = (collided.v[i] - v0) * (t * h)
-        x1 = start.x[i] + work.v[i] * h - shift
+        end.x[i] = start.x[i] + work.v[i] * h - (collided.v[i] - v0) * (t * h)
         angle = work.w[i] * h - (collided.w[i] - w0) * (t * h)
         spin = wp.length(angle)
         q1 = wp.normalize(start.q[i])
         if spin > type(h)(0.0):
             q1 = wp.normalize(wp.quat_from_axis_angle(angle / spin, spin) * q1)
-        end.x[i] = x1
         end.q[i] = q1
-        end.P[i] = work.v[i] / mass.inv_mass[i]
         R1 = wp.quat_to_matrix(q1)
         end.L[i] = R1 * wp.inverse(mass.inv_inertia[i]) * wp.transpose(R1) * work.w[i]
         return
     shift = (collided.v[i] - v0) * ((one - t) * h) + (work.v[i] - collided.v[i]) * (position_response * h)
     angle = (collided.w[i] - w0) * ((one - t) * h) + (work.w[i] - collided.w[i]) * (position_response * h)
     end.x[i] = end.x[i] + shift
-    q_new = turn(end.q[i], angle)
-    end.q[i] = q_new
-    end.P[i] = work.v[i] / mass.inv_mass[i]
-    # L += I(t) (omega change)
-    end.L[i] = end.L[i] + R0 * wp.inverse(mass.inv_inertia[i]) * wp.transpose(R0) * (work.w[i] - w0)
+    end.q[i] = turn(end.q[i], angle)
+    end.L[i] = end.L[i] + R0 * wp.inverse(mass.inv_inertia[i]) * wp.transpose(R0) * (work.w[i] - w0)  # I(t) dw
 
 
 @wp.kernel
 def project_manifolds(manifolds: ManifoldSet, colour: int, iterations: int, sweep: int, rows: Any, mass: Any,
                       slop: Any, relax: Any, end: Any, stamp: wp.array(dtype=wp.int32)):
     """One sweep of the position projection over one colour of manifolds: push overlapping bodies apart along
-    the contact normals, ``relax`` of the way to within ``slop`` [m] of touching, positions only (velocities
-    untouched, so no energy is added), the manifold's contacts iterated together up to ``iterations`` times,
-    until none is deeper than ``slop``. A manifold that found nothing to push last time, and whose bodies no
-    push has moved since (``sweep`` numbers the sweeps; stamp: per body, the last sweep that moved it), is
-    skipped (exact)."""
+    the normals, ``relax`` of the way to within ``slop`` [m] of touching, positions only (no energy added), a
+    manifold's contacts iterated together up to ``iterations`` times, until none is deeper than ``slop``. A
+    manifold that pushed nothing last time, whose bodies no push has moved since (``sweep`` numbers the
+    sweeps; stamp: per body, the last sweep that moved it), is skipped (exact)."""
     p, c0, last = manifold_rows(manifolds, colour, wp.tid())
     if p < 0:
         return

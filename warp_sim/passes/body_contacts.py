@@ -67,6 +67,10 @@ class BodyContacts(Pass):
 
     persistent = ("_capacity", "table.used", "table.keys", "table.cells", "table.n", "table.t")   # the warm start
 
+    def persistent_parts(self) -> dict:
+        """The joints' accumulated impulses and states, swept inside this pass."""
+        return {"joints": self.joints} if self.joints is not None else {}
+
     def __init__(self, model: Model, detection: Detection, position_response: float, slop: float = 1.0e-4,
                  bounce_speed: float | None = None, sweeps: tuple[int, int, int] = (8, 16, 4),
                  iterations: tuple[int, int, int] = (8, 2, 2), relax: float = 0.2, tolerance: float = 1.0e-4,

@@ -91,6 +91,7 @@ class Joints(Pass):
     velocity_sweeps, position_sweeps: Gauss-Seidel sweeps of the velocity rows and of the position projection
         (each one launch per colour; on the CPU one launch for all of them)
     iterations: (velocity, position) iterations of a joint's own rows within one sweep
+    max_step: the longest step it takes [s] (Pass.max_step: the Simulator's joint_step, by default 1/480 s)
     names: the joints' names, in the scene's order; order: each device row's scene index (colour order)
     colours: (first row, rows) per colour
     breakable: whether any joint has a break force or torque (then each step's breaks are read back)
@@ -102,9 +103,10 @@ class Joints(Pass):
     persistent = ("state.enabled", "state.lam_lin", "state.lam_ang", "state.lam_drive_lin", "state.lam_drive_ang",
                   "state.lam_cone", "state.lam_dist", "broken")
 
-    def __init__(self, model: Model, scene, position_response: float, velocity_sweeps: int = 16,
-                 position_sweeps: int = 8, iterations: tuple[int, int] = (2, 4)):
+    def __init__(self, model: Model, scene, position_response: float, velocity_sweeps: int = 8,
+                 position_sweeps: int = 8, iterations: tuple[int, int] = (1, 1), max_step: float | None = None):
         self.model = model
+        self.max_step = max_step
         self.position_response = position_response
         self.velocity_sweeps = velocity_sweeps
         self.position_sweeps = position_sweeps
