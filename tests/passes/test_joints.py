@@ -191,6 +191,25 @@ def test_drive_settles_an_arm_on_its_target():
     assert abs(angle - 90.0) < 1.0
 
 
+@pytest.mark.parametrize("mass", [1.0, 10.0])
+def test_acceleration_drive_rings_at_its_own_frequency_whatever_it_moves(mass):
+    """An acceleration drive's stiffness is per unit of the axis's effective inertia, here the arm's about its
+    hinge (I_c + m r^2, not I_c alone): undamped, without gravity, a 0.5 m arm of 1 or 10 kg pulled from 0 to
+    0.1 rad rings with period 2 pi / sqrt(stiffness) (1 s) within 2 %."""
+    stiffness = (2.0 * math.pi) ** 2
+    scene = ws.Scene(gravity=(0.0, 0.0, 0.0))
+    arm = scene.add_rigid_body(ws.Box((0.25, 0.02, 0.02)), mass=mass, position=(0.25, 1.0, 0.0))
+    drive = ws.Drive(target=0.1, stiffness=stiffness, acceleration=True)
+    scene.add_joint("revolute", None, arm, anchor=(0.0, 1.0, 0.0), axis=(0.0, 1.0, 0.0), drive=drive)
+    sim = ws.Simulator(scene)
+    angles = []
+    for _ in range(600):
+        sim.step(1.0 / 240.0)
+        x = sim.state.body_x.numpy()[0]
+        angles.append(math.atan2(-x[2], x[0]) - 0.1)
+    assert abs(period_of(np.array(angles), 240.0) - 1.0) < 0.02
+
+
 def overlapping_boxes(collide: bool):
     """Two 0.2 m boxes 0.1 m apart (half overlapping), hinged at their middle, no gravity."""
     scene = ws.Scene(gravity=(0.0, 0.0, 0.0))

@@ -178,14 +178,15 @@ def limit_row(value: Any, lower: Any, upper: Any, h: Any, rate: Any, inv_k: Any,
 
 @wp.func
 def drive_row(kind: int, value: Any, rate: Any, target: Any, speed: Any, stiffness: Any, damping: Any,
-              max_force: Any, h: Any, beta: Any, k: Any, acc: Any):
-    """The new accumulated impulse of a drive row (an implicit PD servo; k: the axis's inverse effective mass):
+              max_force: Any, h: Any, beta: Any, k: Any, held: Any, acc: Any):
+    """The new accumulated impulse of a drive row (an implicit PD servo; k: the row's inverse effective mass;
+    held: the axis's, with the joint's locked axes held, which scales an acceleration drive):
     lambda = h (stiffness (target - value - beta h dv) + damping (speed - rate_end)), at most max_force h."""
     ks = stiffness
     kd = damping
-    if kind == 2:   # acceleration: per unit of the effective inertia
-        ks = ks / k
-        kd = kd / k
+    if kind == 2:   # acceleration: per unit of the effective inertia (a hinged arm's about its hinge)
+        ks = ks / held
+        kd = kd / held
     b = h * (beta * h * ks + kd)
     a = h * (ks * (target - value) + kd * speed)
     delta = (a - b * rate - acc) / (type(h)(1.0) + b * k)
@@ -248,6 +249,15 @@ def solve_joints(joints: Any, first: int, iterations: int, sweep: int, h: Any, b
     all_angular = ang_mode[0] == LOCKED and ang_mode[1] == LOCKED and ang_mode[2] == LOCKED
     K_lin = point_block(imc, Ic, rc) + point_block(imp, Ip, rp)
     K_ang = Ic + Ip
+    # the angular rows' response with the anchor held, and the linear rows' with the rotation held (Schur
+    # complements of the joint's 6x6 response; B: the anchor velocity per unit angular impulse)
+    B = -(wp.skew(rc) * Ic + wp.skew(rp) * Ip)
+    K_ang_held = K_ang
+    if all_linear:
+        K_ang_held = K_ang - wp.transpose(B) * wp.inverse(K_lin) * B
+    K_lin_held = K_lin
+    if all_angular:
+        K_lin_held = K_lin - B * wp.inverse(K_ang) * wp.transpose(B)
     work.stamp[c] = sweep
     if p >= 0:
         work.stamp[p] = sweep
@@ -272,7 +282,7 @@ def solve_joints(joints: Any, first: int, iterations: int, sweep: int, h: Any, b
                     acc = joints.lam_drive_lin[j]
                     new = drive_row(drive, wp.dot(d, e), rate, joints.lin_target[j][k], joints.lin_speed[j][k],
                                     joints.lin_stiffness[j][k], joints.lin_damping[j][k], joints.lin_max[j][k], h,
-                                    beta, kk, acc[k])
+                                    beta, kk, wp.dot(e, K_lin_held * e), acc[k])
                     push_velocities(work, p, c, imp, Ip, imc, Ic, rp, rc, e * (new - acc[k]), e * zero)
                     acc[k] = new
                     joints.lam_drive_lin[j] = acc
@@ -318,7 +328,7 @@ def solve_joints(joints: Any, first: int, iterations: int, sweep: int, h: Any, b
                     acc = joints.lam_drive_ang[j]
                     new = drive_row(drive, angle, rate, joints.ang_target[j][k], joints.ang_speed[j][k],
                                     joints.ang_stiffness[j][k], joints.ang_damping[j][k], joints.ang_max[j][k], h,
-                                    beta, kk, acc[k])
+                                    beta, kk, wp.dot(e, K_ang_held * e), acc[k])
                     push_velocities(work, p, c, imp, Ip, imc, Ic, rp, rc, e * zero, e * (new - acc[k]))
                     acc[k] = new
                     joints.lam_drive_ang[j] = acc

@@ -495,6 +495,7 @@ class Scene(Revised):
         return np.array(values, dtype=np.float64).reshape((-1, width) if width else (-1,))
 
     @changes
+    @changes
     def add_joint(self, kind, parent, child, *, anchor, axis=(1.0, 0.0, 0.0), limits=None, drive=None,
                   collide: bool = False, break_force: float | None = None, break_torque: float | None = None,
                   orientation=None, name: str | None = None) -> int:
