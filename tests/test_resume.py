@@ -55,7 +55,19 @@ def springs_scene(precision="float64"):
     return scene
 
 
+def jointed_scene():
+    """A driven, limited hinge and a ball-jointed pair, no contacts: the joints pass alone, its impulses warm."""
+    scene = ws.Scene(precision="float64")
+    arm = scene.add_rigid_body(ws.Box((0.25, 0.02, 0.02)), mass=1.0, position=(0.25, 1.0, 0.0))
+    scene.add_joint("revolute", None, arm, anchor=(0.0, 1.0, 0.0), axis=(0.0, 0.0, 1.0), limits=(-1.0, 0.5),
+                    drive=ws.Drive(target=0.4, stiffness=20.0, damping=1.0))
+    bob = scene.add_rigid_body(ws.Sphere(0.05), mass=0.5, position=(0.75, 1.0, 0.0))
+    scene.add_joint("ball", arm, bob, anchor=(0.5, 1.0, 0.0))
+    return scene
+
+
 @pytest.mark.parametrize("make, integrator, seconds", [
+    (jointed_scene, lambda: "rk4", 1.0),            # joints alone: their accumulated impulses carried over
     (demo_scene, lambda: "rk4", 1.0),               # emitters, cloth, strain limits, bodies in contact, wind
     (demo_scene, lambda: "implicit_euler", 0.5),    # the conjugate gradient warm start
     (springs_scene, lambda: ws.RK45(rtol=1e-6, atol=1e-9), 1.0),   # the adaptive step size carried over
