@@ -45,8 +45,8 @@ DOCS = ROOT / "docs" / "kernels.md"
 #: the public topic modules, in the page's order (each has a non-empty ``__all__``)
 TOPICS = ("integrate", "particles", "springs", "fields", "cloth", "rigid", "planes", "penalty", "guards")
 #: the private modules (``__all__ = []``): for the simulator's own use
-PRIVATE = ("contacts", "detection", "manifolds", "emitters", "implicit", "particle_shapes", "geometry", "precisions",
-           "fused")
+PRIVATE = ("contacts", "joints", "detection", "manifolds", "emitters", "implicit", "particle_shapes", "geometry",
+           "precisions", "fused")
 #: public modules without kernels: ``blocks``, the argument structs (its ``__all__``: of, fill)
 HELPERS = ("blocks",)
 

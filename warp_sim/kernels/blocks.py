@@ -32,8 +32,9 @@ structs of one precision (``of(wp.float64).Springs()``); each field's dtype and 
   anchor_p, anchor_c [m] and frame_p, frame_c (quat) in each body's frame (the world's for -1); lin_mode,
   ang_mode (vec3i per joint-frame axis: 0 free, 1 locked, 2 limited), lin_lower, lin_upper [m], ang_lower,
   ang_upper [rad]; cone [rad] (< 0: none), dist_min, dist_max [m] (< 0: none); drive_lin, drive_ang (vec3i per
-  axis: 0 none, 1 force, 2 acceleration), their targets [m, rad], speeds [m/s, rad/s], stiffness [N/m, N m/rad],
-  damping [N s/m, N m s/rad] and max [N, N m]; break_force [N], break_torque [N m] (< 0: never), enabled (int32:
+  axis: 0 none, 1 force, 2 acceleration), their lin_target, ang_target [m, rad], lin_speed, ang_speed [m/s,
+  rad/s], lin_stiffness, ang_stiffness [N/m, N m/rad], lin_damping, ang_damping [N s/m, N m s/rad] and lin_max,
+  ang_max [N, N m]; break_force [N], break_torque [N m] (< 0: never), enabled (int32:
   1 simulated, 0 broken or disabled); the step's accumulated impulses per joint-frame axis (warm-started from
   the last step's): lam_lin [N s], lam_ang [N m s], lam_drive_lin, lam_drive_ang, lam_cone, lam_dist
 """
