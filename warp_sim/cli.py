@@ -8,6 +8,7 @@ flags that fed them (FLAGS). Warp starts with its "no CUDA driver" line kept off
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import pathlib
@@ -25,6 +26,7 @@ from . import cluster, studies
 from .core import compiling
 from .core.guards import SimulationDiverged
 from .demo import JOINT_STEP, demo_scene
+from .examples import command as example_command
 from .scene import Scene
 from .simulator import RunInterrupted, Simulator
 from .solvers import INTEGRATORS, RK45
@@ -41,7 +43,9 @@ from .util.version import __version__
 FLAGS = {"seconds": "--seconds", "fps": "--fps", "substeps": "--substeps", "usd": "--out", "device": "--device",
          "chunk_frames": "--chunk-frames", "rtol": "--rtol", "atol": "--atol", "integrator": "--integrator",
          "precision": "--precision", "workers": "--workers", "repeats": "--repeats", "path_or_stage": "scene",
-         "script": "script", "arches": "--cuda-arch", "outputs": "--cuda-output"}
+         "script": "script", "arches": "--cuda-arch", "outputs": "--cuda-output", "folder": "--out"}
+#: --fps defaults to the stage's time codes per second [1/s] up to MAX_DEFAULT_FPS, else to FALLBACK_FPS (said)
+MAX_DEFAULT_FPS, FALLBACK_FPS = 240.0, 60.0
 #: the first words of Warp's line at start-up on a machine without the NVIDIA driver (printed by its native library)
 DRIVER_WARNING = b"Warp CUDA warning: Could not find or load the NVIDIA CUDA driver"
 
@@ -63,32 +67,24 @@ def _in_cli_terms(message: str) -> str:
 
 # argument types: each refusal is "<value> is invalid: <what is valid>", argparse adds "argument --flag: "
 def _positive(text: str) -> float:
-    try:
-        number = float(text)
-    except ValueError:
-        number = math.nan
-    if not (math.isfinite(number) and number > 0):
+    number = _number(text)
+    if isinstance(number, str) or not (math.isfinite(number) and number > 0):
         raise argparse.ArgumentTypeError(f"{text} is invalid: expected a number > 0")
-    return number
+    return float(number)
 
 
 def _count(text: str) -> int:
-    try:
-        number = int(text)
-    except ValueError:
-        number = 0
-    if number < 1:
+    number = _number(text)
+    if not isinstance(number, int) or number < 1:
         raise argparse.ArgumentTypeError(f"{text} is invalid: expected a whole number >= 1")
     return number
 
 
 def _substeps(text: str):
-    if text == "auto":
-        return text
-    try:
-        return _count(text)
-    except argparse.ArgumentTypeError:
-        raise argparse.ArgumentTypeError(f"{text} is invalid: expected auto or a whole number >= 1") from None
+    number = _number(text)
+    if text != "auto" and not (isinstance(number, int) and number >= 1):
+        raise argparse.ArgumentTypeError(f"{text} is invalid: expected auto or a whole number >= 1")
+    return number
 
 
 def _arches(text: str) -> list[int]:
@@ -105,14 +101,13 @@ def _start_warp(verbose: bool) -> bool:
     """``wp.init()`` with Warp's line that it found no NVIDIA CUDA driver kept off stderr (unless verbose): it is
     written by Warp's native library as it starts, and says nothing a CPU run needs. Everything else written to
     stderr meanwhile passes through as it comes. Returns whether that line came (no driver)."""
-    if verbose:
-        wp.init()
-        return False
     seen = []
     sys.stderr.flush()
     try:
-        saved = os.dup(2)
+        saved = None if verbose else os.dup(2)
     except OSError:   # no stderr to keep clean
+        saved = None
+    if saved is None:
         wp.init()
         return False
     read, write = os.pipe()
@@ -124,7 +119,6 @@ def _start_warp(verbose: bool) -> bool:
                     seen.append(line)
                 else:
                     os.write(saved, line)
-
     thread = threading.Thread(target=forward, name="warp-sim stderr", daemon=True)
     thread.start()
     os.dup2(write, 2)
@@ -220,7 +214,7 @@ def _check(args, no_driver: bool) -> None:
         _check_frames(args.seconds, args.fps)
         if not args.grid:
             raise UsageError("--grid is required: name=value1,value2,... (repeat it for more parameters)")
-    if args.command in ("sweep", "study"):   # made now, or refused: before minutes of work, not after
+    if args.command in ("sweep", "study", "example"):   # made now, or refused: before minutes of work, not after
         out = args.out or f"out/{args.study}"
         problem = folder_problem(out)
         if problem is not None:
@@ -229,16 +223,12 @@ def _check(args, no_driver: bool) -> None:
 
 def _integrator(args):
     """The solver the options name: rk45 with --rtol/--atol, or a name."""
-    if args.rtol is None and args.atol is None:
-        return args.integrator
     options = {key: value for key, value in (("rtol", args.rtol), ("atol", args.atol)) if value is not None}
-    return RK45(**options)
+    return RK45(**options) if options else args.integrator
 
 
 def _substeps_text(sim: Simulator, substeps, fps: float) -> str:
-    if substeps == "auto":
-        return f"auto substeps ({sim.substeps(1.0 / fps)} per frame)"
-    return f"{substeps} substeps"
+    return f"auto substeps ({sim.substeps(1.0 / fps)} per frame)" if substeps == "auto" else f"{substeps} substeps"
 
 
 def _process_age() -> float:
@@ -272,6 +262,9 @@ def _run(args) -> int:
     """warp-sim run: a UsdPhysics stage simulated into an animation layer over it (or one flattened stage)."""
     scene = Scene.from_usd(args.scene, precision=args.precision)
     fps = args.fps or scene.usd_source.time_codes_per_second
+    if args.fps is None and fps > MAX_DEFAULT_FPS:   # Newton's 1000: 60 fps, said (the overlay keeps the 1000)
+        print(f"{args.scene}: {fps:g} time codes per second; running at {FALLBACK_FPS:g} fps (--fps to choose)")
+        fps = FALLBACK_FPS
     _check_frames(args.seconds, fps)
     sim = Simulator(scene, integrator=_integrator(args), device=args.device)
     print(f"warp-sim run: {args.scene} -> {sim.scene!r} on {sim.device.alias}, {args.integrator}, "
@@ -341,6 +334,8 @@ def _sweep(args) -> int:
     grid = _grid(args.grid)
 
     def started(client):
+        if args.scheduler is None:   # the command's own workers: their warnings one line each too
+            client.run(_worker_warnings, args.verbose)
         link = cluster.dashboard(client)
         if link:
             print(f"warp-sim sweep: Dask dashboard at {link}", flush=True)
@@ -350,6 +345,11 @@ def _sweep(args) -> int:
     print(result.table())
     print(f"in {_wall_time(args)}")
     return 0 if all(row["status"] == "done" for row in result.rows) else 1
+
+
+def _worker_warnings(verbose: bool) -> None:
+    """On a worker process of the command's own Dask cluster: its warnings shown as the command's (_one_line)."""
+    warnings.showwarning = functools.partial(_one_line, verbose=verbose)
 
 
 def _study(args) -> int:
@@ -380,8 +380,7 @@ def build_parser() -> argparse.ArgumentParser:
         "demo", help="simulate the demo scene and write it to a USD stage",
         description="Simulate particles bouncing on the ground, a spring chain hanging from a pinned "
                     "particle, rigid bodies thrown tumbling into the air, a chain of capsules on ball joints "
-                    "swinging from a pivot and a particle fountain, and write "
-                    "the animation to a USD stage.")
+                    "swinging from a pivot and a particle fountain, and write the animation to a USD stage.")
     _run_options(demo, fps=60.0, out="demo.usdc")
     demo.set_defaults(run=_demo)
     run = commands.add_parser(
@@ -396,6 +395,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--flatten", action="store_true",
                      help="write one standalone stage (the input composed with the animation) instead of a layer")
     run.set_defaults(run=_run)
+    example_command.add_parser(commands)
     _prepare_parser(commands)
     _sweep_parser(commands)
     _study_parser(commands, INTEGRATORS)
@@ -408,9 +408,9 @@ def _run_options(parser, fps: float | None, out: str | None) -> None:
                         help="Warp device, e.g. cpu or cuda:0 (default: cuda when present, else cpu)")
     parser.add_argument("--integrator", default="rk4", choices=sorted(INTEGRATORS), help="ODE solver (default: rk4)")
     parser.add_argument("--seconds", type=_positive, default=4.0, help="simulated seconds (default: 4)")
+    shown = f"{fps:g}" if fps else f"the stage's timeCodesPerSecond up to {MAX_DEFAULT_FPS:g}, else {FALLBACK_FPS:g}"
     parser.add_argument("--fps", type=_positive, default=fps,
-                        help="frames per second of the output (default: " + (f"{fps:g})" if fps else
-                                                                              "the stage's timeCodesPerSecond)"))
+                        help=f"frames per second of the output (default: {shown})")
     parser.add_argument("--substeps", type=_substeps, default="auto", metavar="{auto,N}",
                         help="solver steps per frame: auto (default: as many as the scene's stiffest springs and "
                              "contacts need to stay stable, shown when it starts) or a whole number")
@@ -538,9 +538,11 @@ def _interrupted(error: BaseException) -> int:
     return 128 + signum
 
 
-def _one_line(message, category, filename, lineno, file=None, line=None) -> None:
-    """A warning as one line in the command line's words (its source line and location only with --verbose)."""
-    print(f"warp-sim: warning: {_in_cli_terms(str(message))}", file=sys.stderr if file is None else file)
+def _one_line(message, category, filename, lineno, file=None, line=None, verbose=False) -> None:
+    """A warning as one line in the command line's words, never its source line (--verbose: where, at its end)."""
+    where = f" ({category.__name__} at {filename}:{lineno})" if verbose else ""
+    print(f"warp-sim: warning: {' '.join(_in_cli_terms(str(message)).split())}{where}",
+          file=sys.stderr if file is None else file)
 
 
 def main(argv=None) -> int:
@@ -573,10 +575,9 @@ def _main(argv: list[str], started: float, verbose: bool) -> int:
     args.started, args.compiled_before = started, compiled_before
     set_verbose(verbose)
     try:
-        with warnings.catch_warnings():
-            if not verbose:
-                warnings.showwarning = _one_line
-            _check(args, _start_warp(verbose))
+        with warnings.catch_warnings():   # showwarning and the filters back at the end
+            warnings.showwarning = functools.partial(_one_line, verbose=verbose)
+            _check(args, _start_warp(verbose) if args.command != "example" else False)
             return args.run(args)
     except Exception as error:
         if verbose:
