@@ -22,6 +22,7 @@ from .scene import (
                     Turbulence,
                     Vortex,
 )
+from . import examples as examples  # ws.examples: the shipped stages (a module: api_docs lists no module)
 from .simulator import RunInterrupted, Simulator
 from .sweep import SweepResult, sweep
 from .solvers import (
