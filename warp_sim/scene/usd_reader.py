@@ -3,8 +3,8 @@
 The schema's rules are usd-core's: its parser (``UsdPhysics.LoadUsdPhysicsFromRange``) resolves bodies, shapes with
 their scaled sizes and poses relative to their body, materials and the physics scene with its defaults, and its
 ``RigidBodyAPI.ComputeMassProperties`` applies the precedence of mass, density and materials, with warp_sim's shapes
-supplying each shape's volume, inertia and centre of mass. Everything is converted to SI and Y up
-(``usd_units.StageUnits``); ``scene.usd_source`` keeps what the way back needs (``stages.overlay``).
+supplying each shape's volume, inertia and centre of mass; joints are read by ``usd_joints``. Everything is converted
+to SI and Y up (``usd_units.StageUnits``); ``scene.usd_source`` keeps what the way back needs (``stages.overlay``).
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from pxr import Gf, Usd, UsdGeom, UsdPhysics
 
 from ..util import checks
 from ..util.rotations import matrix_to_quat
-from . import usd_attributes, usd_values
+from . import usd_attributes, usd_joints, usd_values
 from .shapes import Box, Capsule, Cylinder, MassProperties, MeshShape, Sphere
 from .usd_units import StageUnits
 
@@ -31,7 +31,7 @@ AXIS_ROTATIONS = {"X": np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1
 SHAPE_TYPES = {"CubeShape", "SphereShape", "CapsuleShape", "CylinderShape", "MeshShape", "PlaneShape"}
 UNSUPPORTED = {"ConeShape": "cone shapes", "CustomShape": "custom shapes", "SpherePointsShape": "sphere points",
                "Capsule1Shape": "capsules with two radii", "Cylinder1Shape": "cylinders with two radii",
-               "Articulation": "articulations", "CollisionGroup": "collision groups"}
+               "CollisionGroup": "collision groups"}
 
 
 @dataclass
@@ -308,9 +308,7 @@ class _Reader:
     # ---- everything else ----------------------------------------------------------------------------------------
     def others(self) -> None:
         for kind, descs in self.descs.items():
-            if kind.endswith("Joint"):
-                self.skipped.setdefault("joints (not simulated: the bodies move freely)", []).extend(descs)
-            elif kind in UNSUPPORTED:
+            if kind in UNSUPPORTED:
                 self.skipped.setdefault(UNSUPPORTED[kind] + " (not simulated)", []).extend(descs)
         filtered = sorted({str(d.primPath) for descs in self.descs.values() for d in descs.values()
                            if list(getattr(d, "filteredCollisions", []) or [])})
@@ -400,6 +398,7 @@ def read(scene_class, source, time=0, precision: str = "float32"):
     reader.bodies()
     reader.colliders()
     usd_attributes.read(reader.scene, reader.stage, reader.time, reader.units, reader._link)
+    usd_joints.read(reader.scene, reader.stage, reader.time, reader.units, reader.descs, reader.skipped)
     reader.others()
     reader.warn_skipped()
     scene = reader.scene

@@ -2,12 +2,15 @@
 
 Bodies are Xforms with RigidBodyAPI, velocities and MassAPI (mass, centre of mass, diagonal inertia, principal
 axes), each with a child collision shape (Cube, Sphere, Capsule, Cylinder or Mesh, with CollisionAPI) bound to a
-physics material; colliders the same without RigidBodyAPI; planes UsdGeom.Plane colliders; cloth, particles and
-emitters carry warp_sim's ``warpSim:`` attributes (usd_attributes). What UsdPhysics cannot hold (point-mass shapes,
-soft bodies, springs outside a cloth, force fields, ramps) is left out with one warning naming it.
+physics material; colliders the same without RigidBodyAPI; planes UsdGeom.Plane colliders; joints their UsdPhysics
+joint prims under /World/Joints (a D6 a UsdPhysics.Joint with LimitAPI and DriveAPI per axis; angles in degrees,
+an angular drive's gains per degree), localPos/localRot in the written prims' frames; cloth, particles and emitters
+carry warp_sim's ``warpSim:`` attributes (usd_attributes). What UsdPhysics cannot hold (point-mass shapes, soft
+bodies, springs outside a cloth, force fields, ramps, a D6's cone) is left out with one warning naming it.
 """
 from __future__ import annotations
 
+import math
 import os
 import warnings
 
@@ -16,7 +19,13 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
 
 from ..util import checks
 from ..util.rotations import matrix_to_quat, quat_to_matrix
-from . import usd_attributes
+from . import usd_attributes, usd_joints
+from .joints import AXES, FREE, LIMITED, LOCKED
+
+#: the schema each joint kind is written as
+SCHEMAS = {"revolute": UsdPhysics.RevoluteJoint, "prismatic": UsdPhysics.PrismaticJoint,
+           "ball": UsdPhysics.SphericalJoint, "fixed": UsdPhysics.FixedJoint, "distance": UsdPhysics.DistanceJoint,
+           "d6": UsdPhysics.Joint}
 
 
 def _quat(q) -> Gf.Quatf:
@@ -38,6 +47,8 @@ class _Writer:
         self.scene, self.stage = scene, stage
         self.materials: dict[tuple, UsdShade.Material] = {}
         self.left_out: dict[str, list[str]] = {}
+        self.body_paths: dict[int, Sdf.Path] = {}       # body index -> its prim (the shape's frame)
+        self.collider_paths: dict[int, Sdf.Path] = {}   # collider index -> its collision shape prim
 
     def material(self, restitution: float, friction: float) -> UsdShade.Material:
         key = (float(restitution), float(friction))
@@ -80,7 +91,7 @@ class _Writer:
         return True
 
     def bodies(self) -> None:
-        for body in self.scene.bodies:
+        for index, body in enumerate(self.scene.bodies):
             R = quat_to_matrix(body.orientation)
             origin = body.position - R @ body.mass.com          # the shape's origin: the prim's frame
             path = Sdf.Path(f"/World/Bodies/{_identifier(body.name)}")
@@ -89,6 +100,7 @@ class _Writer:
             if not self.shape(path, body.shape, body.restitution, body.friction, body.name):
                 self.stage.RemovePrim(path)
                 continue
+            self.body_paths[index] = path
             rigid = UsdPhysics.RigidBodyAPI.Apply(prim)
             mass = body.mass.mass
             rigid.CreateVelocityAttr(Gf.Vec3f(*(body.momentum / mass).tolist()))
@@ -105,11 +117,13 @@ class _Writer:
             api.CreatePrincipalAxesAttr(_quat(matrix_to_quat(axes)))
 
     def colliders(self) -> None:
-        for collider in self.scene.colliders:
+        for index, collider in enumerate(self.scene.colliders):
             path = Sdf.Path(f"/World/Colliders/{_identifier(collider.name)}")
             prim = UsdGeom.Xform.Define(self.stage, path).GetPrim()
             _place(prim, collider.position, collider.orientation)
-            if not self.shape(path, collider.shape, collider.restitution, collider.friction, collider.name):
+            if self.shape(path, collider.shape, collider.restitution, collider.friction, collider.name):
+                self.collider_paths[index] = path.AppendChild("collision")
+            else:
                 self.stage.RemovePrim(path)
         for plane in self.scene.planes:
             path = Sdf.Path(f"/World/Planes/{_identifier(plane.name)}")
@@ -120,6 +134,81 @@ class _Writer:
             UsdPhysics.CollisionAPI.Apply(geom.GetPrim())
             UsdShade.MaterialBindingAPI.Apply(geom.GetPrim()).Bind(
                 self.material(plane.restitution, plane.friction), UsdShade.Tokens.weakerThanDescendants, "physics")
+
+    def joints(self) -> None:
+        """Every joint as its UsdPhysics joint prim under /World/Joints (a D6 as UsdPhysics.Joint)."""
+        for joint in self.scene.joints:
+            sides = (self.collider_paths.get(joint.parent_collider) if joint.parent < 0 else
+                     self.body_paths.get(joint.parent), self.body_paths.get(joint.child))
+            if sides[1] is None or (joint.parent >= 0 and sides[0] is None):
+                self.left_out.setdefault("joints to bodies left out", []).append(joint.name)
+                continue
+            path = Sdf.Path(f"/World/Joints/{_identifier(joint.name)}")
+            while self.stage.GetPrimAtPath(path):
+                path = Sdf.Path(f"{path}_")
+            usd = SCHEMAS[joint.kind].Define(self.stage, path)
+            for k, (index, anchor, frame, target) in enumerate((
+                    (joint.parent, joint.parent_anchor, joint.parent_frame, sides[0]),
+                    (joint.child, joint.child_anchor, joint.child_frame, sides[1]))):
+                if target is not None:
+                    (usd.CreateBody0Rel() if k == 0 else usd.CreateBody1Rel()).SetTargets([target])
+                position, rotation = self.local_pose(index, anchor, frame, target)
+                (usd.CreateLocalPos0Attr if k == 0 else usd.CreateLocalPos1Attr)(Gf.Vec3f(*position.tolist()))
+                (usd.CreateLocalRot0Attr if k == 0 else usd.CreateLocalRot1Attr)(_quat(rotation))
+            usd.CreateCollisionEnabledAttr(bool(joint.collide))
+            usd.CreateJointEnabledAttr(bool(joint.enabled))
+            if np.isfinite(joint.break_force):
+                usd.CreateBreakForceAttr(float(joint.break_force))
+            if np.isfinite(joint.break_torque):
+                usd.CreateBreakTorqueAttr(float(joint.break_torque))
+            self.motion(usd, joint)
+
+    def local_pose(self, index: int, anchor, frame, target) -> tuple[np.ndarray, np.ndarray]:
+        """A joint side's anchor and frame (in body ``index``'s frame, the world's for -1) in the frame of the
+        written prim ``target`` (None: the world), its scale included."""
+        point, rotation = np.asarray(anchor, float), quat_to_matrix(frame)
+        if index >= 0:
+            body = self.scene.bodies[index]
+            R = quat_to_matrix(body.orientation)
+            point, rotation = body.position + R @ point, R @ rotation
+        if target is not None:
+            prim = UsdGeom.Xformable(self.stage.GetPrimAtPath(target))
+            world = prim.ComputeLocalToWorldTransform(Usd.TimeCode.Default())
+            point = np.array(world.GetInverse().Transform(Gf.Vec3d(*point.tolist())))
+            rotation = np.array(world.RemoveScaleShear().ExtractRotationMatrix()) @ rotation
+        return point, matrix_to_quat(rotation)
+
+    def motion(self, usd, joint) -> None:
+        """A joint's limits (in degrees for angles) and drives, as its schema holds them."""
+        prim = usd.GetPrim()
+        if joint.kind in usd_joints.DRIVEN:
+            instance, axis = usd_joints.DRIVEN[joint.kind]
+            k = AXES.index(axis)
+            if joint.modes[k] == LIMITED:
+                for attribute, value in ((usd.CreateLowerLimitAttr, joint.lower[k]),
+                                         (usd.CreateUpperLimitAttr, joint.upper[k])):
+                    if np.isfinite(value):
+                        attribute(float(value / _unit(axis)))
+            _drive(prim, instance, axis, joint.drives[k])
+        elif joint.kind == "ball" and np.isfinite(joint.cone):
+            usd.CreateConeAngle0LimitAttr(float(np.degrees(joint.cone)))
+            usd.CreateConeAngle1LimitAttr(float(np.degrees(joint.cone)))
+        elif joint.kind == "distance":
+            low, high = joint.distance
+            if np.isfinite(high):
+                usd.CreateMaxDistanceAttr(float(high))
+                if low > 0.0:
+                    usd.CreateMinDistanceAttr(float(low))
+        elif joint.kind == "d6":
+            for k, axis in enumerate(AXES):
+                if joint.modes[k] != FREE:
+                    limit = UsdPhysics.LimitAPI.Apply(prim, axis)
+                    locked = joint.modes[k] == LOCKED
+                    limit.CreateLowAttr(1.0 if locked else float(joint.lower[k] / _unit(axis)))
+                    limit.CreateHighAttr(-1.0 if locked else float(joint.upper[k] / _unit(axis)))
+                _drive(prim, axis, axis, joint.drives[k])
+            if np.isfinite(joint.cone):
+                self.left_out.setdefault("the cones of D6 joints (UsdPhysics.Joint has none)", []).append(joint.name)
 
     def particles(self) -> None:
         scene = self.scene
@@ -203,6 +292,27 @@ def _turn_y_to(direction) -> np.ndarray:
     return np.eye(3) + s * K + (1.0 - c) * (K @ K)
 
 
+def _unit(axis: str) -> float:
+    """SI per written unit of a coordinate along ``axis``: radians per degree for a rotation, else 1 (metres)."""
+    return math.radians(1.0) if axis.startswith("rot") else 1.0
+
+
+def _drive(prim, instance: str, axis: str, drive) -> None:
+    """``PhysicsDriveAPI:<instance>`` of a Drive on ``axis`` (nothing for None): an angle's target in degrees, its
+    stiffness per degree and damping per degree/s."""
+    if drive is None:
+        return
+    unit = _unit(axis)
+    api = UsdPhysics.DriveAPI.Apply(prim, instance)
+    api.CreateTypeAttr("acceleration" if drive.acceleration else "force")
+    api.CreateTargetPositionAttr(float(drive.target / unit))
+    api.CreateTargetVelocityAttr(float(drive.velocity / unit))
+    api.CreateStiffnessAttr(float(drive.stiffness * unit))
+    api.CreateDampingAttr(float(drive.damping * unit))
+    if np.isfinite(drive.max_force):
+        api.CreateMaxForceAttr(float(drive.max_force))
+
+
 def _identifier(name: str) -> str:
     return Tf.MakeValidIdentifier(str(name))   # the rule the stage writer names its prims by
 
@@ -223,6 +333,7 @@ def write(scene, path) -> str:
     writer = _Writer(scene, stage)
     writer.bodies()
     writer.colliders()
+    writer.joints()
     writer.particles()
     writer.emitters()
     for what, names in writer.left_out.items():
