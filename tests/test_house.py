@@ -11,7 +11,7 @@ MAX_LINES = 600
 OPTIONAL = {"matplotlib.backends.backend_agg", "matplotlib.figure", "pandas", "distributed"}
 #: the layers, bottom first; a module may import its own layer and those listed before it
 LAYERS = ["util", "scene", "kernels", "core", "detection", "forces", "solvers", "passes", "assembly", "stages",
-          "simulator", "cluster", "sweep", "preview", "demo", "studies", "cli", "__main__", "__init__"]
+          "simulator", "cluster", "sweep", "preview", "demo", "studies", "examples", "cli", "__main__", "__init__"]
 
 
 def module_name(path: pathlib.Path) -> str:

@@ -12,7 +12,7 @@ import warp_sim as ws
 from warp_sim.cli import main
 from warp_sim.stages.inputs import files_read, overwritten
 
-EXAMPLE = Path(__file__).resolve().parent.parent.parent / "examples" / "tabletop_cm.usda"
+EXAMPLE = Path(ws.examples.path("tabletop_cm.usda"))
 
 
 def write(path: Path, text: str) -> Path:
