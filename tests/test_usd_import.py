@@ -503,7 +503,8 @@ def test_blender_imports_the_overlay_and_plays_the_bodies(tmp_path):
 
 
 def test_the_shipped_example_animates(tmp_path):
-    """README's one command on the shipped tabletop_cm.usda (ws.examples) (Z up, centimetres, 24 time codes per second from 1):
+    """README's one command on the shipped tabletop_cm.usda (ws.examples; Z up, centimetres, 24 time codes per
+    second from 1):
     the crate lands on the table top (z = 72 cm, half size 6 cm) and the kinematic paddle pushes it along; the
     ball ends at rest on the floor (its radius, 5 cm, above it); the towel hangs from its four pins."""
     source = pathlib.Path(ws.examples.path("tabletop_cm.usda"))
