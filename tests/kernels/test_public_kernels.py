@@ -28,8 +28,8 @@ PUBLIC = {
     "cloth": ["aerodynamic_forces"],
     "guards": ["check_finite_and_bounded"],
 }
-PRIVATE = ["contacts", "detection", "manifolds", "emitters", "implicit", "particle_shapes", "geometry", "precisions",
-           "fused"]
+PRIVATE = ["contacts", "joints", "detection", "manifolds", "emitters", "implicit", "particle_shapes", "geometry",
+           "precisions", "fused"]
 HELPERS = {"blocks": ["of", "fill"]}   # public modules without kernels
 
 PUBLIC_KERNELS = [(topic, name) for topic, names in PUBLIC.items() for name in names]
