@@ -137,6 +137,25 @@ def test_hinge_limit_holds_a_fast_spin():
     assert max(angles) > 44.0   # it reached the limit
 
 
+def test_a_long_pendulum_stops_on_its_limit_with_its_anchor_held():
+    """A 1 m pendulum released at 20 degrees swings under gravity onto a limit at 15 degrees (the hinge's -5):
+    it stops there (a limit is inelastic: it climbs back less than 0.5 degrees) with the anchor gap under 2 mm
+    (the limit's torque acts about the hinge, not the bob's centre of mass: kernels.joints.held_spin)."""
+    start = math.radians(20.0)
+    scene = ws.Scene()
+    bob = scene.add_rigid_body(ws.Sphere(0.05), mass=1.0, position=(math.sin(start), 2.0 - math.cos(start), 0.0))
+    scene.add_joint("revolute", None, bob, anchor=(0.0, 2.0, 0.0), axis=(0.0, 0.0, 1.0),
+                    limits=(math.radians(-5.0), math.radians(20.0)))
+    sim = ws.Simulator(scene)
+    x = []
+    for _ in range(120):
+        sim.step(1.0 / 60.0)
+        x.append(sim.state.body_x.numpy()[0])
+        assert sim.joints.gaps(sim.state).max() < 2e-3
+    angles = np.degrees(swing(np.array(x)))
+    assert angles.min() > 15.0 - 0.5 and angles[30:].max() < 15.5
+
+
 def test_slider_keeps_to_its_rail_orientation_and_limits():
     scene = ws.Scene(gravity=(0.0, -9.81, 0.0))
     body = scene.add_rigid_body(ws.Box((0.1, 0.05, 0.05)), mass=1.0, position=(0.0, 1.0, 0.0),
@@ -282,6 +301,21 @@ def test_distance_joint_is_a_rope():
     for _ in range(240):
         sim.step(1.0 / 60.0)
         assert np.linalg.norm(sim.state.body_x.numpy()[0] - np.array([0.0, 2.0, 0.0])) < 1.002
+
+
+def test_a_distance_joint_with_only_a_minimum_is_a_strut():
+    """limits (0.5, inf): a ball thrown at its anchor at 2 m/s (no gravity) moves freely, then comes no nearer
+    than 0.5 m (2 mm) and stays there (a limit is inelastic)."""
+    scene = ws.Scene(gravity=(0.0, 0.0, 0.0))
+    ball = scene.add_rigid_body(ws.Sphere(0.05), mass=1.0, position=(1.0, 2.0, 0.0), linear_velocity=(-2.0, 0.0, 0.0))
+    scene.add_joint("distance", None, ball, anchor=((0.0, 2.0, 0.0), (1.0, 2.0, 0.0)), limits=(0.5, math.inf))
+    sim = ws.Simulator(scene)
+    distances = []
+    for _ in range(60):
+        sim.step(1.0 / 60.0)
+        distances.append(np.linalg.norm(sim.state.body_x.numpy()[0] - np.array([0.0, 2.0, 0.0])))
+    assert abs(distances[5] - (1.0 - 2.0 * 6 / 60.0)) < 1e-6   # free before it reaches 0.5 m
+    assert min(distances) > 0.5 - 2e-3 and abs(distances[-1] - 0.5) < 2e-3
 
 
 def test_a_scene_without_joints_launches_no_joint_kernel():

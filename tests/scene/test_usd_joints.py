@@ -409,7 +409,8 @@ def test_a_weld_to_a_static_collider_round_trips(tmp_path):
 
 def test_what_is_read_but_not_honoured_is_warned_once_per_kind(tmp_path):
     """A joint state, a drive on an axis the joint does not move, a LimitAPI on a typed joint, PhysX's joint
-    schema and a distance joint with only a minDistance: one warning each, naming the prims."""
+    schema: one warning each, naming the prims; a distance joint with only a minDistance (a strut the ball may not
+    come nearer than) is honoured, without a warning."""
     stage = new_stage(tmp_path / "odd.usda")
     body(stage, "/World/ball", UsdGeom.Sphere, (0.0, 1.0, 0.0), Radius=0.05)
     hinge = joint(stage, UsdPhysics.RevoluteJoint, "/World/hinge", body1="/World/ball", pos0=(0.0, 1.0, 0.0))
@@ -424,10 +425,11 @@ def test_what_is_read_but_not_honoured_is_warned_once_per_kind(tmp_path):
         scene = ws.Scene.from_usd(tmp_path / "odd.usda")
     messages = [str(w.message) for w in caught]
     for what, path in (("joint states", "/World/hinge"), ("drives on axes", "/World/hinge"),
-                       ("limits warp_sim does not have", "/World/hinge"), ("only a minDistance", "/World/strut"),
+                       ("limits warp_sim does not have", "/World/hinge"),
                        ("other solvers' schemas", "/World/hinge")):
         assert sum(what in m and path in m for m in messages) == 1, (what, messages)
     assert len(scene.joints) == 2 and scene.joints[0].drives[3] is None
+    assert not any("minDistance" in m for m in messages) and scene.joints[1].distance == (0.5, math.inf)
 
 
 @pytest.mark.parametrize("name, value, text", [

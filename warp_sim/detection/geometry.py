@@ -158,11 +158,12 @@ class ContactGeometry:
 
 def skipped_pairs(scene) -> tuple[np.ndarray, np.ndarray]:
     """(per body and one more, where its entries start; the geoms j > i each body does not collide with): the two
-    bodies of every joint that does not say ``collide``, a static collider it is anchored to included."""
+    bodies of every enabled joint that does not say ``collide``, a static collider it is anchored to included (a
+    disabled joint is as if absent; a broken one keeps its pair apart, as at the start)."""
     B = scene.body_count
     others: list[set] = [set() for _ in range(B)]
     for joint in scene.joints:
-        if joint.collide:
+        if joint.collide or not joint.enabled:
             continue
         parent = joint.parent if joint.parent >= 0 else (B + joint.parent_collider if joint.parent_collider >= 0
                                                          else -1)

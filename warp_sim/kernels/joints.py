@@ -80,6 +80,20 @@ def point_block(inv_mass: Any, inv_inertia: Any, r: Any):
 
 
 @wp.func
+def held_spin(held: int, K_lin: Any, imp: Any, Ip: Any, imc: Any, Ic: Any, rp: Any, rc: Any):
+    """(C, S) for angular rows while the anchor is held (held = 1: the joint's linear axes all locked): an
+    angular impulse tau [N m s] on the child with the linear impulse C tau at the anchors leaves the anchors'
+    relative velocity unchanged, and changes the relative spin by S tau (S = K_ang - B^T K_lin^-1 B, B the
+    anchor velocity per unit tau: a hinged arm turns about its hinge, not its centre of mass). held = 0: C = 0,
+    S = K_ang."""
+    B = -(wp.skew(rc) * Ic + wp.skew(rp) * Ip)
+    C = B * (imc * type(imc)(0.0))
+    if held == 1:
+        C = -(wp.inverse(K_lin) * B)
+    return C, Ic + Ip + wp.transpose(B) * C
+
+
+@wp.func
 def side_velocity(work: Any, b: int, r: Any):
     if b < 0:
         return r * type(r[0])(0.0)
@@ -249,14 +263,10 @@ def solve_joints(joints: Any, first: int, iterations: int, sweep: int, h: Any, b
     all_angular = ang_mode[0] == LOCKED and ang_mode[1] == LOCKED and ang_mode[2] == LOCKED
     K_lin = point_block(imc, Ic, rc) + point_block(imp, Ip, rp)
     K_ang = Ic + Ip
-    # the angular rows' response with the anchor held, and the linear rows' with the rotation held (Schur
-    # complements of the joint's 6x6 response; B: the anchor velocity per unit angular impulse)
-    B = -(wp.skew(rc) * Ic + wp.skew(rp) * Ip)
-    K_ang_held = K_ang
-    if all_linear:
-        K_ang_held = K_ang - wp.transpose(B) * wp.inverse(K_lin) * B
-    K_lin_held = K_lin
+    C, S = held_spin(wp.where(all_linear, 1, 0), K_lin, imp, Ip, imc, Ic, rp, rc)
+    K_lin_held = K_lin   # the linear rows' response with the rotation held (scales an acceleration drive)
     if all_angular:
+        B = -(wp.skew(rc) * Ic + wp.skew(rp) * Ip)
         K_lin_held = K_lin - B * wp.inverse(K_ang) * wp.transpose(B)
     work.stamp[c] = sweep
     if p >= 0:
@@ -311,9 +321,10 @@ def solve_joints(joints: Any, first: int, iterations: int, sweep: int, h: Any, b
         # angular rows
         if all_angular:
             spin = side_spin(work, c, rc) - side_spin(work, p, rc)
-            impulse = -(wp.inverse(K_ang) * spin)
-            push_velocities(work, p, c, imp, Ip, imc, Ic, rp, rc, rc * zero, impulse)
+            impulse = -(wp.inverse(S) * spin)
+            push_velocities(work, p, c, imp, Ip, imc, Ic, rp, rc, C * impulse, impulse)
             joints.lam_ang[j] = joints.lam_ang[j] + wp.quat_rotate_inv(fp, impulse)
+            joints.lam_lin[j] = joints.lam_lin[j] + wp.quat_rotate_inv(fp, C * impulse)
         else:
             for k in range(3):
                 mode = ang_mode[k]
@@ -322,14 +333,16 @@ def solve_joints(joints: Any, first: int, iterations: int, sweep: int, h: Any, b
                     continue
                 e = wp.quat_rotate(fp, unit_axis(d, k))
                 rate = wp.dot(side_spin(work, c, rc) - side_spin(work, p, rc), e)
-                kk = wp.dot(e, K_ang * e)
+                kk = wp.dot(e, S * e)
                 angle = joint_angle(fp, fc, hinge, k)
                 if drive != 0 and mode != LOCKED:
                     acc = joints.lam_drive_ang[j]
                     new = drive_row(drive, angle, rate, joints.ang_target[j][k], joints.ang_speed[j][k],
                                     joints.ang_stiffness[j][k], joints.ang_damping[j][k], joints.ang_max[j][k], h,
-                                    beta, kk, wp.dot(e, K_ang_held * e), acc[k])
-                    push_velocities(work, p, c, imp, Ip, imc, Ic, rp, rc, e * zero, e * (new - acc[k]))
+                                    beta, kk, kk, acc[k])
+                    tau = e * (new - acc[k])
+                    push_velocities(work, p, c, imp, Ip, imc, Ic, rp, rc, C * tau, tau)
+                    joints.lam_lin[j] = joints.lam_lin[j] + wp.quat_rotate_inv(fp, C * tau)
                     acc[k] = new
                     joints.lam_drive_ang[j] = acc
                     rate = wp.dot(side_spin(work, c, rc) - side_spin(work, p, rc), e)
@@ -340,7 +353,9 @@ def solve_joints(joints: Any, first: int, iterations: int, sweep: int, h: Any, b
                 if mode == LIMITED:
                     new = limit_row(angle, joints.ang_lower[j][k], joints.ang_upper[j][k], h, rate,
                                     type(h)(1.0) / kk, acc[k])
-                push_velocities(work, p, c, imp, Ip, imc, Ic, rp, rc, e * zero, e * (new - acc[k]))
+                tau = e * (new - acc[k])
+                push_velocities(work, p, c, imp, Ip, imc, Ic, rp, rc, C * tau, tau)
+                joints.lam_lin[j] = joints.lam_lin[j] + wp.quat_rotate_inv(fp, C * tau)
                 acc[k] = new
                 joints.lam_ang[j] = acc
         # the swing cone (a ball joint's limit)
@@ -352,11 +367,13 @@ def solve_joints(joints: Any, first: int, iterations: int, sweep: int, h: Any, b
                 n = wp.normalize(swing)
                 angle = wp.atan2(wp.length(swing), wp.dot(xp, xc))
                 rate = wp.dot(side_spin(work, c, rc) - side_spin(work, p, rc), n)
-                kk = wp.dot(n, K_ang * n)
+                kk = wp.dot(n, S * n)
                 held = joints.lam_cone[j]
                 total = limit_row(angle, -joints.cone[j] - type(h)(1.0), joints.cone[j], h, rate,
                                   type(h)(1.0) / kk, held)
-                push_velocities(work, p, c, imp, Ip, imc, Ic, rp, rc, n * zero, n * (total - held))
+                tau = n * (total - held)
+                push_velocities(work, p, c, imp, Ip, imc, Ic, rp, rc, C * tau, tau)
+                joints.lam_lin[j] = joints.lam_lin[j] + wp.quat_rotate_inv(fp, C * tau)
                 joints.lam_cone[j] = total
 
 
@@ -419,18 +436,19 @@ def project_joints(joints: Any, first: int, iterations: int, sweep: int, end: An
         pc, rc, fc = joint_side(end.x, end.q, c, joints.anchor_c[j], joints.frame_c[j])
         imp, Ip = side_inverse(mass, end.q, p, zero)
         imc, Ic = side_inverse(mass, end.q, c, zero)
-        K = Ic + Ip
+        C, K = held_spin(wp.where(all_linear, 1, 0), point_block(imc, Ic, rc) + point_block(imp, Ip, rp), imp, Ip,
+                         imc, Ic, rp, rc)
         if all_angular:
             offset = fp * wp.quat_inverse(fc)   # turns the child's frame onto the parent's
             if offset[3] < zero:
                 offset = -offset
             phi = wp.vector(offset[0], offset[1], offset[2]) * type(zero)(2.0)
-            push_positions(end.x, end.q, p, c, imp, Ip, imc, Ic, rp, rc, phi * zero, wp.inverse(K) * phi)
+            push_positions(end.x, end.q, p, c, imp, Ip, imc, Ic, rp, rc, C * (wp.inverse(K) * phi), wp.inverse(K) * phi)
         elif hinge >= 0:
             a_p = wp.quat_rotate(fp, unit_axis(d, hinge))
             a_c = wp.quat_rotate(fc, unit_axis(d, hinge))
             phi = wp.cross(a_c, a_p)
-            push_positions(end.x, end.q, p, c, imp, Ip, imc, Ic, rp, rc, phi * zero, wp.inverse(K) * phi)
+            push_positions(end.x, end.q, p, c, imp, Ip, imc, Ic, rp, rc, C * (wp.inverse(K) * phi), wp.inverse(K) * phi)
             if ang_mode[hinge] == LIMITED:
                 fp = joint_frame(end.q, p, joints.frame_p[j])
                 fc = joint_frame(end.q, c, joints.frame_c[j])
@@ -438,8 +456,8 @@ def project_joints(joints: Any, first: int, iterations: int, sweep: int, end: An
                 error = angle - wp.clamp(angle, joints.ang_lower[j][hinge], joints.ang_upper[j][hinge])
                 if error != zero:
                     a = wp.quat_rotate(fp, unit_axis(d, hinge))
-                    push_positions(end.x, end.q, p, c, imp, Ip, imc, Ic, rp, rc, a * zero,
-                                   a * (-error / wp.dot(a, K * a)))
+                    tau = a * (-error / wp.dot(a, K * a))
+                    push_positions(end.x, end.q, p, c, imp, Ip, imc, Ic, rp, rc, C * tau, tau)
         else:
             for k in range(3):
                 mode = ang_mode[k]
@@ -451,8 +469,8 @@ def project_joints(joints: Any, first: int, iterations: int, sweep: int, end: An
                     error = angle - wp.clamp(angle, joints.ang_lower[j][k], joints.ang_upper[j][k])
                 if error != zero:
                     e = wp.quat_rotate(fp, unit_axis(d, k))
-                    push_positions(end.x, end.q, p, c, imp, Ip, imc, Ic, rp, rc, e * zero,
-                                   e * (-error / wp.dot(e, K * e)))
+                    tau = e * (-error / wp.dot(e, K * e))
+                    push_positions(end.x, end.q, p, c, imp, Ip, imc, Ic, rp, rc, C * tau, tau)
                     fp = joint_frame(end.q, p, joints.frame_p[j])
                     fc = joint_frame(end.q, c, joints.frame_c[j])
         if joints.cone[j] >= zero:
@@ -464,8 +482,8 @@ def project_joints(joints: Any, first: int, iterations: int, sweep: int, end: An
             angle = wp.atan2(wp.length(swing), wp.dot(xp, xc))
             if angle > joints.cone[j] and wp.length(swing) > type(zero)(1.0e-9):
                 n = wp.normalize(swing)
-                push_positions(end.x, end.q, p, c, imp, Ip, imc, Ic, rp, rc, n * zero,
-                               n * (-(angle - joints.cone[j]) / wp.dot(n, K * n)))
+                tau = n * (-(angle - joints.cone[j]) / wp.dot(n, K * n))
+                push_positions(end.x, end.q, p, c, imp, Ip, imc, Ic, rp, rc, C * tau, tau)
 
 
 @wp.kernel

@@ -44,6 +44,11 @@ def joint_colours(joints: list[Joint], body_count: int) -> np.ndarray:
     return colour_springs(pairs, body_count + len(joints))
 
 
+def _kept_apart(joint: Joint) -> bool:
+    """Whether a joint bounds its anchors' distance (a distance joint with a min, a max or both)."""
+    return bool(np.isfinite(joint.distance[0]) or np.isfinite(joint.distance[1]))
+
+
 def _rows(joints: list[Joint]) -> dict[str, np.ndarray]:
     """The kernels' per-joint fields (blocks.LAYOUTS["Joints"]) as numpy arrays, in the given order."""
     def finite(value):
@@ -73,8 +78,8 @@ def _rows(joints: list[Joint]) -> dict[str, np.ndarray]:
         lin_mode=modes[:, :3], ang_mode=modes[:, 3:], lin_lower=lower[:, :3], lin_upper=upper[:, :3],
         ang_lower=lower[:, 3:], ang_upper=upper[:, 3:],
         cone=np.array([finite(j.cone) for j in joints], float),
-        dist_min=np.array([finite(j.distance[0]) if np.isfinite(j.distance[1]) else _NONE for j in joints], float),
-        dist_max=np.array([finite(j.distance[1]) for j in joints], float),
+        dist_min=np.array([finite(j.distance[0]) if _kept_apart(j) else _NONE for j in joints], float),
+        dist_max=np.array([min(j.distance[1], 1.0e30) if _kept_apart(j) else _NONE for j in joints], float),
         drive_lin=lin["kind"], drive_ang=ang["kind"], lin_target=lin["target"], ang_target=ang["target"],
         lin_speed=lin["speed"], ang_speed=ang["speed"], lin_stiffness=lin["stiffness"],
         ang_stiffness=ang["stiffness"], lin_damping=lin["damping"], ang_damping=ang["damping"], lin_max=lin["max"],

@@ -211,8 +211,9 @@ def _modes_of(kind, limits, drive) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
 
 
 def make_joint(scene, kind, parent, child, *, anchors, frames, limits=None, drive=None, collide=False,
-               break_force=None, break_torque=None, name=None, enabled=True) -> Joint:
-    """A checked Joint: ``anchors`` and ``frames`` are (parent's, child's), each in its body's own frame."""
+               break_force=None, break_torque=None, name=None, enabled=True, parent_collider=-1) -> Joint:
+    """A checked Joint: ``anchors`` and ``frames`` are (parent's, child's), each in its body's own frame;
+    parent_collider: the static collider (index into scene.colliders) a world-parented joint is anchored to."""
     if not isinstance(kind, D6):
         kind = checks.choice("kind", kind, KINDS)
     count = scene.body_count
@@ -222,6 +223,9 @@ def make_joint(scene, kind, parent, child, *, anchors, frames, limits=None, driv
         raise checks.fail("child", child, f"expected a body index in [0, {count})")
     if parent is not None and parent == child:
         raise checks.fail("child", child, "expected a body other than the parent")
+    if parent_collider != -1 and (parent is not None or not 0 <= parent_collider < len(scene.colliders)):
+        raise checks.fail("parent_collider", parent_collider,
+                          f"expected a collider index in [0, {len(scene.colliders)}) with parent None, or -1")
     if drive is not None and not isinstance(drive, Drive):
         raise checks.fail("drive", drive, "expected a ws.Drive")
     modes, lower, upper, cone, distance, drives = _modes_of(kind, limits, drive)
@@ -238,7 +242,8 @@ def make_joint(scene, kind, parent, child, *, anchors, frames, limits=None, driv
                  parent_frame=checks.unit_quaternion("frame", parent_frame),
                  child_frame=checks.unit_quaternion("frame", child_frame),
                  modes=modes, lower=lower, upper=upper, cone=cone, distance=distance, drives=drives,
-                 collide=bool(collide), break_force=forces[0], break_torque=forces[1], enabled=bool(enabled))
+                 collide=bool(collide), break_force=forces[0], break_torque=forces[1], enabled=bool(enabled),
+                 parent_collider=int(parent_collider))
 
 
 def world_joint(scene, kind, parent, child, *, anchor, axis=(1.0, 0.0, 0.0), orientation=None, limits=None,

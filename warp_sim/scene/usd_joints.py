@@ -104,8 +104,8 @@ class _JointReader:
                 break_force=self.breaking(prim, "physics:breakForce", force, "force [kilogramsPerUnit x units/s^2]"),
                 break_torque=self.breaking(prim, "physics:breakTorque", force * u.meters_per_unit,
                                            "torque [kilogramsPerUnit x units^2/s^2]"),
-                name=str(path), enabled=bool(self.get(prim, "physics:jointEnabled", True)))
-        joint.parent_collider = sides[0].collider
+                name=str(path), enabled=bool(self.get(prim, "physics:jointEnabled", True)),
+                parent_collider=sides[0].collider)
         self.scene.joints.append(joint)
 
     def side(self, prim, k: int, resolved) -> _Side | None:
@@ -202,13 +202,10 @@ class _JointReader:
         return None if math.isinf(min(angles)) else math.radians(min(angles))
 
     def distance(self, prim) -> tuple | None:
-        """A distance joint's (min, max) [m] (a negative bound is none), or None without an upper bound."""
+        """A distance joint's (min, max) [m] (a negative bound is none: max inf, min 0), or None with neither."""
         low, high = (self.number(prim, name, -1.0) for name in ("physics:minDistance", "physics:maxDistance"))
         if high < 0.0 or math.isinf(high):
-            if low > 0.0:
-                self.note("distance joints with only a minDistance (not honoured: warp_sim keeps a lower bound only "
-                          "with an upper one)", prim.GetPath())
-            return None
+            return None if low <= 0.0 else (low * self.units.meters_per_unit, math.inf)
         if low > high:
             raise usd_values.error(prim.GetPath(), "physics:minDistance", low,
                                    f"expected at most physics:maxDistance ({usd_values.show(high)})")
