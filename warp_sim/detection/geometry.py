@@ -33,6 +33,8 @@ def shape_samples(shape) -> tuple[np.ndarray, float]:
         return np.asarray(shape.vertices, dtype=np.float64), 0.0
     if kind == "points":
         return np.asarray(shape.positions, dtype=np.float64), shape.radius
+    if kind == "none":   # a body without a shape: nothing of it touches anything
+        return np.zeros((0, 3)), 0.0
     raise ValueError(f"shape kind {kind!r} has no contact geometry")
 
 
@@ -54,8 +56,8 @@ def _first_faces(faces: np.ndarray, vertex_count: int) -> np.ndarray:
 class ContactGeometry:
     """The scene's collision shapes on the device, bodies then static colliders.
 
-    geoms: a kernels.detection.Geoms (float32: kinds, sizes [m], centres of mass [m], meshes, sample
-        points [m], bounds [m], restitution, friction, poses)
+    geoms: a kernels.detection.Geoms (float32: kinds, sizes [m], centres of mass [m], meshes (static surfaces,
+        ``MeshShape(solid=False)``, flagged two-sided), sample points [m], bounds [m], restitution, friction, poses)
     meshes: the wp.Mesh objects the geoms refer to (kept alive here)
     body_count, static_count: how many bodies and colliders
     max_reach: [the largest reach (bound + travel + margin), the largest travel over the step] [m], set by detection
@@ -68,7 +70,7 @@ class ContactGeometry:
         colliders = scene.colliders
         self.static_count = len(colliders)
         self.meshes: list[wp.Mesh] = []   # kept alive: the geoms hold their ids
-        kinds, sizes, coms, mesh_ids, starts, counts, radii, bounds, e, mu = ([] for _ in range(10))
+        kinds, sizes, coms, mesh_ids, starts, counts, radii, bounds, e, mu, sides = ([] for _ in range(11))
         samples, owner_starts, owners, xs, qs = [], [], [], [], []
         sample_total = owner_total = 0
 
@@ -85,6 +87,7 @@ class ContactGeometry:
                 self.meshes.append(mesh)
                 mesh_id = mesh.id
             mesh_ids.append(mesh_id)
+            sides.append(int(static_mesh_faces is not None and not shape.solid))   # a surface: two-sided
             owner_starts.append(owner_total)
             if static_mesh_faces is not None:   # static meshes: vertices found by BVH query, not looped over
                 owners.append(_first_faces(static_mesh_faces, len(mesh_points)))
@@ -132,6 +135,7 @@ class ContactGeometry:
         g.size = array(sizes, wp.vec3f, (-1, 3))
         g.com = array(coms, wp.vec3f, (-1, 3))
         g.mesh = wp.array(np.asarray(mesh_ids, dtype=np.uint64), dtype=wp.uint64, device=device)
+        g.two_sided = array(sides, wp.int32)
         g.sample_start = array(starts, wp.int32)
         g.sample_count = array(counts, wp.int32)
         g.samples = array(np.concatenate(samples) if samples else np.zeros((0, 3)), wp.vec3f, (-1, 3))

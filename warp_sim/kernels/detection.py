@@ -22,6 +22,7 @@ from .geometry import (
     closest_on_segments,
     corner_sign,
     shape_distance,
+    two_sided_distance,
 )
 from .precisions import register
 
@@ -38,6 +39,7 @@ class Geoms:
     size: wp.array(dtype=wp.vec3f)           # sphere (r, 0, 0); box half extents; capsule/cylinder (r, h/2, 0)
     com: wp.array(dtype=wp.vec3f)            # the pose origin in the shape frame (a body's centre of mass)
     mesh: wp.array(dtype=wp.uint64)          # wp.Mesh id of mesh shapes (shape frame; world frame for statics)
+    two_sided: wp.array(dtype=wp.int32)      # 1 for a static surface (an open or double-sided mesh): no inside
     sample_start: wp.array(dtype=wp.int32)   # contact sample points (shape frame), or a static mesh's vertices
     sample_count: wp.array(dtype=wp.int32)
     samples: wp.array(dtype=wp.vec3f)
@@ -204,11 +206,18 @@ def sample_world(geoms: Geoms, g: int, k: int):
 
 
 @wp.func
-def distance_to(geoms: Geoms, g: int, p: wp.vec3f, max_dist: float):
-    """Signed distance [m] and world outward normal of geom g at world point p."""
+def distance_to(geoms: Geoms, g: int, p: wp.vec3f, side: wp.vec3f, max_dist: float):
+    """Signed distance [m] and world outward normal of geom g at world point p; a two-sided surface's sign is
+    that of the side the world point ``side`` (the centre of the body p belongs to) lies on."""
     local = wp.quat_rotate_inv(geoms.q[g], p - geoms.x[g]) + geoms.com[g]
-    d, n = shape_distance(geoms.kind[g], geoms.size[g], geoms.mesh[g], geoms.samples, geoms.sample_start[g],
-                          geoms.sample_count[g], local, max_dist)
+    d = float(0.0)
+    n = wp.vec3f(0.0)
+    if geoms.two_sided[g] != 0:
+        d, n = two_sided_distance(geoms.mesh[g], local, wp.quat_rotate_inv(geoms.q[g], side - geoms.x[g])
+                                  + geoms.com[g], max_dist)
+    else:
+        d, n = shape_distance(geoms.kind[g], geoms.size[g], geoms.mesh[g], geoms.samples, geoms.sample_start[g],
+                              geoms.sample_count[g], local, max_dist)
     return d, wp.quat_rotate(geoms.q[g], n)
 
 
@@ -229,7 +238,7 @@ def samples_against_shape(geoms: Geoms, a: int, b: int, margin: float, buf: Cont
     r = geoms.sample_radius[a]
     for k in range(geoms.sample_count[a]):
         p = sample_world(geoms, a, k)
-        d, n = distance_to(geoms, b, p, geoms.bound[b] + margin + r)
+        d, n = distance_to(geoms, b, p, geoms.x[a], geoms.bound[b] + margin + r)
         if d - r < margin:
             rb = float(0.0)   # a sphere's side of the contact is its centre and radius too
             if geoms.kind[b] == SPHERE:
@@ -252,7 +261,7 @@ def mesh_vertices_against_shape(geoms: Geoms, m: int, a: int, margin: float, buf
             v = mesh.indices[3 * face + c]
             if geoms.owner[geoms.owner_start[m] + v] == face:
                 p = mesh.points[v] + geoms.x[m]
-                d, n = distance_to(geoms, a, p, extent)
+                d, n = distance_to(geoms, a, p, p, extent)
                 if d < margin:
                     emit(buf, pair, geoms.body_count, m, a, n, p, 0.0, p - n * d, 0.0)
 

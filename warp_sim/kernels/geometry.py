@@ -3,9 +3,10 @@
 Every shape is queried in its own frame (primitives centred on the origin, capsule and
 cylinder axes along +Y). A signed distance d [m] is negative inside; the normal n is
 the unit outward direction of steepest increase. Mesh distances use Warp's BVH
-queries (``wp.mesh_query_point_sign_normal``: the sign from the angle-weighted pseudo
-normal, which also works for open surfaces such as terrains, where "inside" is below
-the surface), in float32 as ``wp.Mesh`` stores them.
+queries (``wp.mesh_query_point_sign_normal`` for a closed mesh: the sign from the
+angle-weighted pseudo normal), in float32 as ``wp.Mesh`` stores them. A surface (an open
+or double-sided static mesh) has two sides and no inside: ``two_sided_distance`` takes
+the side of a point of the body it is tested against (its centre), not the winding.
 
 Private: every function here (there are no kernels) is for the simulator's own use;
 their arguments may change between releases. ``__all__`` is empty.
@@ -24,8 +25,10 @@ CAPSULE = wp.constant(2)
 CYLINDER = wp.constant(3)
 MESH = wp.constant(4)
 POINTS = wp.constant(5)
+SIDE_SKIN = wp.constant(1.0e-3)   # [m] how far behind a two-sided surface a body's point still counts on its side
 
-KINDS = {"sphere": 0, "box": 1, "capsule": 2, "cylinder": 3, "mesh": 4, "points": 5}
+KINDS = {"sphere": 0, "box": 1, "capsule": 2, "cylinder": 3, "mesh": 4, "points": 5,
+         "none": 6}   # no shape: shape_distance is max_dist everywhere and it has no samples, so it never touches
 
 
 @wp.func
@@ -131,6 +134,30 @@ def mesh_distance(mesh: wp.uint64, p: Any, max_dist: Any):
         direction, length = direction_or(p - closest, face_normal * type(d)(query.sign))
         d = length * type(d)(query.sign)
         n = direction * type(d)(query.sign)
+    return d, n
+
+
+@wp.func
+def two_sided_distance(mesh: wp.uint64, p: wp.vec3f, side: wp.vec3f, max_dist: float):
+    """Distance [m] from p to a two-sided surface (a wp.Mesh, its own frame) within max_dist, and the unit normal:
+    |p - c| and the direction from the closest point c to p (the face normal towards point ``side``, a body's
+    centre, where they coincide). A point behind the face as seen from ``side`` by at most SIDE_SKIN (a body's
+    corner sunk in by the contacts' slop) is on the body's side: minus its depth, along that face normal, so its
+    contact pushes it back. Farther behind, it keeps its own side (a body reaching past an edge of the surface).
+    Beyond max_dist: max_dist and +Y."""
+    d = max_dist
+    n = wp.vec3f(0.0, 1.0, 0.0)
+    query = wp.mesh_query_point_no_sign(mesh, p, max_dist)
+    if query.result:
+        closest = wp.mesh_eval_position(mesh, query.face, query.u, query.v)
+        facing = wp.mesh_eval_face_normal(mesh, query.face)
+        front = facing * sign_of(wp.dot(facing, side - closest))
+        height = wp.dot(p - closest, front)
+        if height < 0.0 and height >= -SIDE_SKIN:
+            d = height
+            n = front
+        else:
+            n, d = direction_or(p - closest, front)
     return d, n
 
 
