@@ -10,8 +10,9 @@ MAX_LINES = 600
 #: imports allowed inside a function: optional dependencies only, imported where they are used
 OPTIONAL = {"matplotlib.backends.backend_agg", "matplotlib.figure", "pandas", "distributed"}
 #: the layers, bottom first; a module may import its own layer and those listed before it
-LAYERS = ["util", "scene", "kernels", "core", "detection", "forces", "solvers", "passes", "assembly", "stages",
-          "simulator", "cluster", "sweep", "preview", "demo", "studies", "examples", "cli", "__main__", "__init__"]
+LAYERS = ["util", "scene", "kernels", "core", "detection", "forces", "solvers", "passes", "assembly", "adjoints",
+          "stages", "simulator", "gradients", "cluster", "sweep", "preview", "demo", "studies", "examples", "cli",
+          "__main__", "__init__"]
 
 
 def module_name(path: pathlib.Path) -> str:

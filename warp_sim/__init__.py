@@ -24,6 +24,7 @@ from .scene import (
 )
 from . import examples as examples  # ws.examples: the shipped stages (a module: api_docs lists no module)
 from .simulator import RunInterrupted, Simulator
+from .gradients import gradient
 from .sweep import SweepResult, sweep
 from .solvers import (
                     INTEGRATORS,
@@ -43,5 +44,5 @@ __all__ = ["Scene", "Simulator", "Model", "State", "Control", "SimulationDiverge
            "INTEGRATORS", "Integrator", "Euler", "Midpoint", "RK4", "SymplecticEuler", "VelocityVerlet",
            "ImplicitEuler", "RK45", "Shape", "Sphere", "Box", "Capsule", "Cylinder", "MeshShape", "PointMasses",
            "MassProperties", "Drive", "D6", "Ramp", "Attractor", "Vortex", "Turbulence", "RunInterrupted",
-           "set_verbose", "sweep", "SweepResult", "__version__"]
+           "set_verbose", "sweep", "SweepResult", "gradient", "__version__"]
 interrupts.release()   # the previous handlers back (the command keeps recording until its main)

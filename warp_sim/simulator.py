@@ -6,6 +6,7 @@ import warnings
 import numpy as np
 import warp as wp
 
+from .adjoints import make_differentiable
 from .assembly import RESPONSES, assemble
 from .core import compiling, persistence
 from .core.capture import StepGraphs
@@ -78,6 +79,12 @@ class Simulator(Persistent):
         the same states bit for bit; None: the environment
         variable WARP_SIM_CPU_THREADS, else every core this process may use. A captured step (capture=True)
         runs each launch on one thread: Warp's CPU graph replays its launches one after another
+    differentiable: every launch a ``wp.launch`` that an active ``wp.Tape`` records, every step's states new (nothing
+        an adjoint reads is overwritten), the model's float arrays and every state with gradients (``.grad``), and
+        the launched kernel modules compiled with their backward kernels (only then: a forward-only Simulator
+        compiles none); fused steps off, capture refused. A part without an adjoint yet is refused
+        (adjoints.NoAdjoint, a ValueError naming it): contacts, joints, emitters, strain limiting, kinematic
+        bodies, penalty forces, force fields, aerodynamics, rk45, implicit_euler. ``ws.gradient`` runs on it
 
     With "rk45" each ``step(dt)`` lands exactly on t + dt, taking as many internal steps as the tolerance
     needs (``sim.integrator.stats()`` counts them), so ``run(..., substeps=1)`` is the natural choice.
@@ -88,7 +95,7 @@ class Simulator(Persistent):
     State; a new object after each step, so read ``sim.state.particle_x`` afresh), dynamics, integrator, passes (in
     order);
     body_contacts, particle_shapes, impacts, strain_limiter, emitters, joints (those passes, or None; the joints run
-    inside body_contacts where it exists); guard; fused; captured;
+    inside body_contacts where it exists); guard; fused; captured; differentiable;
     time [s]; step_count; output: the stage the last run() wrote (a pathlib.Path), or None.
     """
 
@@ -98,7 +105,7 @@ class Simulator(Persistent):
                  penalty_stiffness: float = 1.0e4, guard: bool = True, max_speed: float = 1.0e4,
                  contact_margin: float = 0.005, collisions: bool = True, contact_step: float | None = 1.0 / 120.0,
                  fused: bool = True, capture: bool = False, cpu_threads: int | None = None,
-                 joint_step: float | None = 1.0 / 480.0):
+                 joint_step: float | None = 1.0 / 480.0, differentiable: bool = False):
         if not isinstance(scene, Scene):
             raise checks.fail("scene", scene, "expected a warp_sim.Scene")
         if scene.particle_count == 0 and scene.body_count == 0:
@@ -115,18 +122,27 @@ class Simulator(Persistent):
             raise checks.fail("fused", fused, "expected True or False")
         if not isinstance(capture, bool):
             raise checks.fail("capture", capture, "expected True or False")
+        if not isinstance(differentiable, bool):
+            raise checks.fail("differentiable", differentiable, "expected True or False")
+        if differentiable and capture:
+            raise checks.fail("capture", capture, "expected False with differentiable=True: a graph's replays "
+                                                  "bypass the tape")
         if contact_step is not None:
             contact_step = checks.scalar("contact_step", contact_step, low=0.0, low_open=True)
         if joint_step is not None:
             joint_step = checks.scalar("joint_step", joint_step, low=0.0, low_open=True)
         threads = cpu_threads_for(cpu_threads)
         device = resolve_device(device)
-        parts = assemble(scene, device, integrator, contact, stiffness, margin, collisions, contact_step, fused,
-                         joint_step)
+        parts = assemble(scene, device, integrator, contact, stiffness, margin, collisions, contact_step,
+                         fused and not differentiable, joint_step)
+        if differentiable:
+            make_differentiable(parts, "Simulator(differentiable=True)")
+        self.differentiable = differentiable
         #: the options it was made with, which a checkpoint must match
         self.settings = dict(device=device, contact=contact, penalty_stiffness=stiffness, guard=guard, max_speed=speed,
                              contact_margin=margin, collisions=collisions, contact_step=contact_step, fused=fused,
-                             capture=capture, **({"joint_step": joint_step} if scene.joints else {}))
+                             capture=capture, **({"joint_step": joint_step} if scene.joints else {}),
+                             **({"differentiable": True} if differentiable else {}))
         self.scene = scene
         self._scene_revision = scene.revision   # a scene changed after this is refused (scene.revisions)
         self.model = parts.model
@@ -199,7 +215,10 @@ class Simulator(Persistent):
         """Compile (or load from Warp's cache) every kernel module the simulation launches, in parallel on the
         available cores (core.compiling.load): a cold start compiles them side by side instead of one by one at
         their first launches, the longest first (kernels.COMPILE_SECONDS), so no core waits long at the end; and
-        says so first, with how long it takes, on stderr."""
+        says so first, with how long it takes, on stderr. A differentiable Simulator first turns on the backward
+        kernels of the modules its steps launch (compiling.enable_adjoints), the guard's aside."""
+        if self.differentiable:
+            compiling.enable_adjoints(sorted({name for part in self._running_parts() for name in part.kernels}))
         compiling.load(self.kernel_modules(), self.model.device)
 
     @property
@@ -340,10 +359,11 @@ class Simulator(Persistent):
         graphs.miss(all(step_pass.capture_intact() for step_pass in after))
 
     def _piece(self, piece: float, last: bool) -> None:
-        """One piece of a step, ``piece`` seconds (the last of its step: ``last``), swapping the States."""
+        """One piece of a step, ``piece`` seconds (the last of its step: ``last``), swapping the States (in a
+        differentiable run, into a new State)."""
         for step_pass in self.passes:
             step_pass.check_step(piece)
-        start, end = self.state, self._next
+        start, end = self.state, self.dynamics.new_state() if self.differentiable else self._next
         if self.fused is None:
             self.integrator.step(start, end, self.time, piece)
             after = self.passes

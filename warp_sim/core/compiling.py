@@ -14,6 +14,10 @@ cores, or WARP_SIM_CPU_THREADS; Warp's own default, ``wp.config.load_module_max_
 some are not cached it first prints ``compiling kernels for cpu, once, about N s`` to stderr (``notice``; off
 with ``set_notices(False)``), N the longest queue of an even split of their COMPILE_SECONDS over the workers plus
 each worker's precompiled header (HEADER_SECONDS, built once per thread and process).
+
+Every module sets ``enable_backward`` False at import, so nothing builds an adjoint unless a differentiable
+Simulator asks: ``enable_adjoints(names)`` turns it on for its modules (the option is part of the hash, so that
+build is cached apart, ADJOINT_FACTOR times as long to compile), for the rest of the process.
 """
 from __future__ import annotations
 
@@ -32,13 +36,17 @@ from ..kernels import precisions
 from .cpu_threads import cpu_threads
 
 __all__ = ["is_cached", "pending", "estimate", "load", "module_names", "prepare", "notice", "set_notices",
-           "seconds_compiling", "HEADER_SECONDS", "CUDA_FACTOR"]
+           "seconds_compiling", "enable_adjoints", "adjoints_enabled", "HEADER_SECONDS", "CUDA_FACTOR",
+           "ADJOINT_FACTOR"]
 
 #: seconds a compile thread spends on its precompiled header before its first module (Warp builds one per thread
 #: and process): 1.4 to 1.6 s on one core of a 2-core Xeon or EPYC (a thread's first module against the others)
 HEADER_SECONDS = 1.5
 #: NVRTC against the CPU compiler on one module, roughly: kernels.detection for sm_90 against the CPU, 8 s to 2.3 s
 CUDA_FACTOR = 3.5
+#: a module with its backward kernels against without (compiling.enable_adjoints): integrate, particles, springs
+#: and rigid cold on one core, 3.2 s against 1.4 s after the header
+ADJOINT_FACTOR = 2.3
 #: the CUDA outputs of an ahead-of-time compile: Warp loads PTX where the driver is at least as new as its CUDA
 #: toolkit, else CUBIN (``Device.get_cuda_output_format``), so a cache baked for another machine holds both
 CUDA_OUTPUTS = ("ptx", "cubin")
@@ -94,16 +102,35 @@ def is_cached(name: str, device) -> bool:
     return (folder / binary).exists() and (folder / module._get_meta_name(block_dim=dim)).exists()
 
 
+def adjoints_enabled(name: str) -> bool:
+    """Whether module ``name`` of warp_sim.kernels builds its backward kernels (every module sets
+    ``enable_backward`` False at import; ``enable_adjoints`` turns it on)."""
+    return bool(_module(name).options.get("enable_backward"))
+
+
+def enable_adjoints(names) -> list[str]:
+    """Turn on the backward kernels of the modules ``names`` (a differentiable Simulator's, before it loads them):
+    ``wp.set_module_options`` gives each module a new hash, so Warp builds it afresh with its adjoints, cached
+    apart from its forward-only build, which every other process keeps loading. The modules keep their adjoints
+    for the rest of this process (their forward kernels are the same code). Returns the names turned on now."""
+    turned = [name for name in names if not adjoints_enabled(name)]
+    for name in turned:
+        wp.set_module_options({"enable_backward": True}, _module(name))
+    return turned
+
+
 def pending(names, device) -> list[str]:
     """The modules of ``names`` that would compile on ``device`` (not cached), in the order given."""
     return [name for name in names if not is_cached(name, device)]
 
 
-def estimate(names, workers: int, cuda: bool = False) -> float:
+def estimate(names, workers: int, cuda: bool = False, adjoints=()) -> float:
     """Seconds to compile ``names`` on ``workers`` threads: each thread's precompiled header, then the modules
     the longest first, each to the thread free first (kernels.COMPILE_SECONDS; CUDA_FACTOR times as long for
-    CUDA); the last thread's finish."""
-    seconds = sorted((kernels.COMPILE_SECONDS.get(name, 0.5) for name in names), reverse=True)
+    CUDA, ADJOINT_FACTOR times for those of ``adjoints``, built with their backward kernels); the last thread's
+    finish."""
+    seconds = sorted((kernels.COMPILE_SECONDS.get(name, 0.5) * (ADJOINT_FACTOR if name in adjoints else 1.0)
+                      for name in names), reverse=True)
     if not seconds:
         return 0.0
     queues = [HEADER_SECONDS] * max(1, min(workers, len(seconds)))
@@ -123,7 +150,7 @@ def load(names, device, workers: int | None = None) -> float:
     todo = pending(order, device)
     started = time.perf_counter()
     if todo:
-        seconds = estimate(todo, workers, cuda=device.is_cuda)
+        seconds = estimate(todo, workers, cuda=device.is_cuda, adjoints=[n for n in todo if adjoints_enabled(n)])
         notice(f"compiling kernels for {device.alias}, once, about {max(1, round(seconds))} s")
     wp.force_load(device, modules=[_module(name) for name in order], max_workers=workers)
     if not todo:

@@ -107,7 +107,8 @@ class RigidBodies(Component):
                                                                    m.body_mass, out.bodies])
 
     def post_step(self, state: State) -> None:
-        self.model.launch(rigid_kernels.normalize_orientations, self.model.body_count, [state.body_q])
+        self.model.launcher.launch_in_place(rigid_kernels.normalize_orientations, self.model.body_count,
+                                            [state.body_q], state.body_q)
 
     def velocities(self, state: State, v: wp.array, omega: wp.array) -> None:
         """Write the auxiliaries v = P / M [m/s] and omega [rad/s] of ``state`` into v and omega."""

@@ -16,6 +16,11 @@ class Dynamics:
 
     model: the Model; components: the state owners, in layout order; force_terms: what fills
     ``forces`` (the accumulators) before the components turn them into rates.
+    particle_force: None, or a force on each particle (vec3) [N] that the particles' accumulator starts from, in a
+    differentiable run (the frame's row of a per-frame control, ws.gradient)
+
+    In a differentiable run (``model.differentiable``) every new state has gradients and every evaluation of the
+    forces writes fresh accumulators (``Forces.renew``).
     """
 
     def __init__(self, model: Model, components: list[Component], force_terms: list[ForceTerm], forces: Forces):
@@ -25,14 +30,15 @@ class Dynamics:
         self.forces = forces
         self.layout = StateLayout([field for c in self.components for field in c.fields])
         self.position_rates_need_positions = any(c.position_rates_need_positions for c in self.components)
+        self.particle_force = None
 
     def component(self, name: str) -> Component | None:
         """The component called ``name`` ("particles", "bodies"), or None when absent."""
         return next((c for c in self.components if c.name == name), None)
 
     def new_state(self) -> State:
-        """A zeroed state of this system's layout on the model's device."""
-        state = State(self.layout, self.model.scalar, self.model.device)
+        """A zeroed state of this system's layout on the model's device (with gradients in a differentiable run)."""
+        state = State(self.layout, self.model.scalar, self.model.device, self.model.differentiable)
         for component in self.components:
             component.attach(state)
         return state
@@ -45,8 +51,12 @@ class Dynamics:
         return state
 
     def accumulate_forces(self, state: State, t: float) -> None:
-        """Clear the force accumulators and add every force term's forces at (t, ``state``)."""
-        self.forces.clear()
+        """Clear the force accumulators (renew them, in a differentiable run) and add every force term's forces at
+        (t, ``state``)."""
+        if self.model.differentiable:
+            self.forces.renew(self.particle_force)
+        else:
+            self.forces.clear()
         for term in self.force_terms:
             term.apply(state, t, self.forces)
 

@@ -43,7 +43,7 @@ class Guard:
         self.components = list(components)
         self.max_speed = max_speed
         self._max_speed = model.scalar(max_speed)
-        self.launch = model.launch
+        self.launch = model.launcher.off_tape   # no tape records the checks
         self.records = [guard_kernels.GuardRecord() for _ in self.components]
         for record in self.records:
             record.first_step = wp.full(1, NO_RECORD, dtype=wp.int32, device=model.device)

@@ -248,6 +248,15 @@ class Launcher:
             return
         self.prepare(kernel, dim, inputs).run(dim)
 
+    def off_tape(self, kernel, dim: int, inputs: list) -> None:
+        """launch() of a launch no wp.Tape may record (the guard's checks; core.tape keeps it off the tape)."""
+        self.launch(kernel, dim, inputs)
+
+    def launch_in_place(self, kernel, dim: int, inputs: list, written) -> None:
+        """launch() of a kernel that overwrites ``written``, one of its inputs, in place (core.tape restores its
+        values around the adjoint; here nothing more)."""
+        self.launch(kernel, dim, inputs)
+
     def launch_elementwise(self, kernel, dim: int, inputs: list) -> None:
         """launch() of a kernel whose thread i writes element i of its arrays of length ``dim`` and reads only
         element i of them (other arrays: read whole). On the CPU's pool (core.cpu_threads), from 2 x

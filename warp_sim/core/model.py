@@ -11,6 +11,7 @@ import warp as wp
 from ..kernels import blocks, precisions
 from ..scene import Scene
 from .launcher import Launcher
+from .tape import TapedLauncher
 
 SCALARS = {"float32": (wp.float32, wp.vec3f, np.float32), "float64": (wp.float64, wp.vec3d, np.float64)}
 MATRICES = {wp.float32: wp.mat33f, wp.float64: wp.mat33d}
@@ -47,6 +48,9 @@ class Model:
     plane_normal (unit), plane_offset [m], plane_restitution, plane_friction: planes normal . x = offset
     springs, planes, particle_material, body_mass: the same arrays as kernels.blocks structs (None where absent)
 
+    differentiable: whether launches go through wp.launch and the float arrays have gradients
+    (``make_differentiable``)
+
     The blocks capture the arrays: nothing may replace an array after the Model is built. The one exception
     to "constant": an emitter pool (passes.emitters) sets the inverse mass and
     radius of its own slots at births and deaths; every other array is written once, here.
@@ -56,6 +60,7 @@ class Model:
         self.device = wp.get_device(device)
         self.launcher = Launcher(self.device)
         self.launch = self.launcher.launch
+        self.differentiable = False
         self.precision = scene.precision
         self.scalar, self.vec3, self.numpy_scalar = SCALARS[scene.precision]
         self.mat33 = MATRICES[self.scalar]
@@ -126,6 +131,22 @@ class Model:
             setattr(self, f"plane_{key}", _array([getattr(p, key) for p in planes], self.scalar, self.device))
         self.planes = blocks.fill(self.blocks.Planes, normal=self.plane_normal, offset=self.plane_offset,
                                   restitution=self.plane_restitution, friction=self.plane_friction)
+
+    def make_differentiable(self) -> None:
+        """From now on launch through core.tape's TapedLauncher (every launch a ``wp.launch``, which an active
+        wp.Tape records), and give every float array a gradient (``array.grad``, zeroed: a tape's backward adds
+        into it). Called once, before anything launches (a Simulator(differentiable=True), right after assembly)."""
+        self.differentiable = True
+        self.launcher = TapedLauncher(self.device)
+        self.launch = self.launcher.launch
+        for name in _ARRAYS:
+            array = getattr(self, name)
+            if array is not None and array.dtype in (self.scalar, self.vec3, self.mat33):
+                array.requires_grad = True
+        for block, layout in ((self.springs, "Springs"), (self.planes, "Planes"),
+                              (self.particle_material, "ParticleMaterial"), (self.body_mass, "BodyMass")):
+            for field in blocks.LAYOUTS[layout] if block is not None else ():
+                setattr(block, field, getattr(block, field))   # a struct keeps the gradients its arrays were set with
 
     def no_planes(self):
         """A Planes block of no planes, for kernels that take planes where none apply."""

@@ -130,15 +130,31 @@ class Forces:
     """
 
     def __init__(self, model: Model, targets: set):
-        def accumulator(component: str, count: int):
-            return wp.zeros(count if component in targets else 0, dtype=model.vec3, device=model.device)
+        self.model, self.targets = model, set(targets)
+        self._fill(False)
 
-        self.particle_f = accumulator("particles", model.particle_count)
-        self.body_f = accumulator("bodies", model.body_count)
-        self.body_t = accumulator("bodies", model.body_count)
-        self.body_wrench = blocks.fill(blocks.of(model.scalar).Wrench, force=self.body_f, torque=self.body_t)
+    def _fill(self, requires_grad: bool, particles: bool = False) -> None:
+        """New zeroed accumulators for the targets (and the particles where ``particles``)."""
+        m = self.model
+
+        def accumulator(component: str, count: int, wanted: bool = False):
+            return wp.zeros(count if component in self.targets or wanted else 0, dtype=m.vec3, device=m.device,
+                            requires_grad=requires_grad)
+
+        self.particle_f = accumulator("particles", m.particle_count, particles)
+        self.body_f = accumulator("bodies", m.body_count)
+        self.body_t = accumulator("bodies", m.body_count)
+        self.body_wrench = blocks.fill(blocks.of(m.scalar).Wrench, force=self.body_f, torque=self.body_t)
         self.arrays = [a for a in (self.particle_f, self.body_f, self.body_t) if a.shape[0] > 0]
 
     def clear(self) -> None:
         for array in self.arrays:
             array.zero_()
+
+    def renew(self, particle_force=None) -> None:
+        """A differentiable run's clear(): new zeroed accumulators with gradients, so that no evaluation overwrites
+        what an earlier one's adjoint reads; with ``particle_force`` (vec3, one per particle [N]) the particles'
+        starts from it (a copy, recorded by an active wp.Tape), even where no force term targets them."""
+        self._fill(True, particle_force is not None)
+        if particle_force is not None:
+            wp.copy(self.particle_f, particle_force)

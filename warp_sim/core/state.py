@@ -60,13 +60,15 @@ class State(Persistent):
     position, velocity: views of its two blocks
     particle_x [m], particle_v [m/s], body_x [m], body_q (unit quaternion x, y, z, w), body_P [kg m/s],
         body_L [kg m^2/s]: typed views of the fields present (see StateField)
+    requires_grad: whether y has a gradient (``y.grad``: a differentiable Simulator's states do), each view's
+        ``.grad`` the same view of it
     """
 
     persistent = ("y",)
 
-    def __init__(self, layout: StateLayout, scalar, device):
+    def __init__(self, layout: StateLayout, scalar, device, requires_grad: bool = False):
         self.layout = layout
-        self.y = wp.zeros(layout.size, dtype=scalar, device=device)
+        self.y = wp.zeros(layout.size, dtype=scalar, device=device, requires_grad=requires_grad)
         self.position = self.y[: layout.position_size]
         self.velocity = self.y[layout.position_size:]
         vector_types = ELEMENT_TYPES[scalar]

@@ -3,7 +3,8 @@
 A solver advances ``state_in`` at time t by h seconds into ``state_out`` (a different
 State of the same layout), written once over the flat state and the Dynamics derivative,
 so every component runs under every solver. Scratch states are allocated once, at
-``bind``, never per step.
+``bind``, never per step; in a differentiable run (``differentiable`` solvers only) each stage
+writes a new one instead (``scratch``), so no value a wp.Tape's adjoint reads is overwritten.
 """
 from __future__ import annotations
 
@@ -27,11 +28,14 @@ class Integrator(Persistent):
     persistent: what it carries from one step to the next (a step size, a warm start, counters), for checkpoints
     kernels: the kernel modules (names in warp_sim.kernels) it launches
     capturable: whether its launches are the same every step (a fixed step: core.capture)
+    differentiable: whether its step has an adjoint on a wp.Tape (its stages write ``scratch`` states: a
+        Simulator(differentiable=True) refuses the others)
     """
 
     name = ""
     kernels: tuple[str, ...] = ("integrate",)
     capturable = True
+    differentiable = False
     order = 0
     position_response = 0.5
 
@@ -44,11 +48,20 @@ class Integrator(Persistent):
             raise checks.fail("integrator", self, "this solver instance is already bound to a simulator; "
                                                   "make a new one for each Simulator")
         self.scalar = dynamics.model.scalar
-        self.launch = dynamics.model.launch
-        self.launch_elementwise = dynamics.model.launcher.launch_elementwise
+        self.use_launcher(dynamics.model.launcher)
         self.allocate(dynamics)        # may refuse the dynamics (ValueError): the solver stays unbound then
         self.dynamics = dynamics
         return self
+
+    def use_launcher(self, launcher) -> None:
+        """Launch through ``launcher`` (core.launcher; a differentiable Simulator's core.tape one) from now on."""
+        self.launch = launcher.launch
+        self.launch_elementwise = launcher.launch_elementwise
+
+    def scratch(self, state: State) -> State:
+        """``state`` (one of the scratch states of ``allocate``), or in a differentiable run a new State of its
+        layout: each stage that writes it gets its own, so no value the adjoint reads is overwritten."""
+        return self.dynamics.new_state() if self.dynamics.model.differentiable else state
 
     def allocate(self, dynamics: Dynamics) -> None:
         """Allocate what the solver needs for this Dynamics (scratch states, solver buffers)."""

@@ -1,7 +1,12 @@
-"""The partitioned (symplectic) solvers: kicks of the velocity block, drifts of the position block."""
+"""The partitioned (symplectic) solvers: kicks of the velocity block, drifts of the position block.
+
+A kick and a drift write their rates into ``scratch`` states (new ones in a differentiable run); velocity Verlet's
+half step is a state of its own there, since the drift reads its velocities and the second kick replaces them.
+"""
 from __future__ import annotations
 
 import numpy as np
+import warp as wp
 
 from ..core.state import State
 from .base import Integrator
@@ -17,8 +22,9 @@ class Partitioned(Integrator):
 
     def kick(self, forces_at: State, velocities: State, out: State, t: float, h: float) -> None:
         """out.velocity = velocities.velocity + h * (velocity rates at ``forces_at``)."""
-        self.dynamics.velocity_derivative(forces_at, t, self.k)
-        self.axpy(velocities.velocity, h, self.k.velocity, out.velocity)
+        k = self.scratch(self.k)
+        self.dynamics.velocity_derivative(forces_at, t, k)
+        self.axpy(velocities.velocity, h, k.velocity, out.velocity)
 
     def drift(self, state_in: State, state_out: State, h: float) -> None:
         """out.position = in.position + h * (position rates from in's positions and out's velocities).
@@ -27,11 +33,14 @@ class Partitioned(Integrator):
         its orientation), the rates are taken at the half-drifted positions (a midpoint drift), so the
         drift stays second order; for particles (x' = v) this extra stage would change nothing and is skipped.
         """
-        self.dynamics.position_derivative(state_in, state_out, self.k)
+        k = self.scratch(self.k)
+        self.dynamics.position_derivative(state_in, state_out, k)
         if self.mid is not None:
-            self.axpy(state_in.position, 0.5 * h, self.k.position, self.mid.position)
-            self.dynamics.position_derivative(self.mid, state_out, self.k)
-        self.axpy(state_in.position, h, self.k.position, state_out.position)
+            mid = self.scratch(self.mid)
+            self.axpy(state_in.position, 0.5 * h, k.position, mid.position)
+            k = self.scratch(self.k)
+            self.dynamics.position_derivative(mid, state_out, k)
+        self.axpy(state_in.position, h, k.position, state_out.position)
 
 
 class SymplecticEuler(Partitioned):
@@ -40,6 +49,7 @@ class SymplecticEuler(Partitioned):
 
     name, order = "symplectic_euler", 1
     position_response = 1.0
+    differentiable = True
 
     def step(self, state_in, state_out, t, h):
         self.kick(state_in, state_in, state_out, t, h)
@@ -56,11 +66,15 @@ class VelocityVerlet(Partitioned):
     Second order, symplectic; velocity-dependent forces use the half-step velocity."""
 
     name, order = "verlet", 2
+    differentiable = True
 
     def step(self, state_in, state_out, t, h):
-        self.kick(state_in, state_in, state_out, t, 0.5 * h)
-        self.drift(state_in, state_out, h)
-        self.kick(state_out, state_out, state_out, t + h, 0.5 * h)
+        half = self.scratch(state_out)   # state_out itself, but in a differentiable run
+        self.kick(state_in, state_in, half, t, 0.5 * h)
+        self.drift(state_in, half, h)
+        self.kick(half, half, state_out, t + h, 0.5 * h)
+        if half is not state_out:
+            wp.copy(state_out.position, half.position)   # recorded by an active tape
 
     def amplification(self, h, w2, c, stiff=True):
         """A half kick at (x, v), a drift with the half-step velocity, a half kick at (x1, v_half): the
