@@ -254,7 +254,7 @@ def cloud(**kw):
 
 
 @pytest.mark.parametrize("spec,message", [
-    (rock(kind="cone"), "kind must be one of sphere, box, capsule, cylinder, mesh, points, got 'cone'"),
+    (rock(kind="cone"), "kind must be one of sphere, box, capsule, cylinder, mesh, points, none, got 'cone'"),
     (rock(index=-1), "index must be an integer >= 0"),
     (rock(index=1.0), "index must be an integer >= 0"),
     (rock(size=()), r"size of a sphere must be \(radius,\)"),

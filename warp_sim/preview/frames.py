@@ -216,6 +216,8 @@ def _local_shape(kind: str, size=(), points=None, faces=None, radius=0.02, segme
     if kind == "points":
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         return _Local(points, np.full(len(points), float(radius)), no_tris)
+    if kind == "none":   # a body without a shape: nothing to draw
+        return _Local(none, _empty(0), no_tris)
     raise checks.fail("kind", kind, "expected sphere, box, capsule, cylinder, mesh or points")
 
 

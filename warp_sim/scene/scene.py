@@ -11,7 +11,7 @@ from .fields import Field
 from .joints import Joint, world_joint
 from .parts import Collider, ParticleGroup, Plane, RigidBody, SurfaceMesh
 from .revisions import Revised, changes
-from .shapes import MassProperties, Shape
+from .shapes import MassProperties, NoShape, Shape
 from .tracks import Track
 
 PRECISIONS = ("float32", "float64")
@@ -425,7 +425,7 @@ class Scene(Revised):
         return len(self.bodies)
 
     @changes
-    def add_rigid_body(self, shape: Shape, density: float | None = None, mass: float | None = None,
+    def add_rigid_body(self, shape: Shape | None, density: float | None = None, mass: float | None = None,
                        position=(0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0),
                        linear_velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0),
                        restitution: float = 0.5, friction: float = 0.4, drag: float | None = None,
@@ -434,7 +434,8 @@ class Scene(Revised):
                        kinematic=None) -> int:
         """Add a rigid body; returns its body index.
 
-        shape: a ws.Sphere, Box, Capsule, Cylinder, MeshShape (solid) or PointMasses; density
+        shape: a ws.Sphere, Box, Capsule, Cylinder, MeshShape (solid) or PointMasses, or None with mass_properties
+        (a body that collides with nothing, e.g. a joint's anchor); density
         [kg/m^3] or mass [kg] (one of them; density 1000 when neither); position: where
         the shape's own origin goes [m] (for a mesh or point masses the body's centre of
         mass then lies at position + R com); orientation: quaternion (x, y, z, w),
@@ -447,6 +448,8 @@ class Scene(Revised):
         """
         if mass_properties is not None and (not isinstance(mass_properties, MassProperties) or density or mass):
             raise checks.fail("mass_properties", mass_properties, "expected a MassProperties, without density or mass")
+        if shape is None and mass_properties is not None:
+            shape = NoShape()
         properties = mass_properties or _shape(shape).mass_properties(density=density, mass=mass)
         _shape(shape)
         drag = self.drag if drag is None else checks.scalar("drag", drag, low=0.0)

@@ -431,3 +431,26 @@ class PointMasses(Shape):
 
     def __repr__(self) -> str:
         return f"PointMasses(count={len(self.masses)}, total_mass={self._unit.mass:.6g}, radius={self.radius!r})"
+
+
+class NoShape(Shape):
+    """No shape: a body that collides with nothing (a USD rigid body without a collider, such as a joint's anchor).
+    It has no volume, so its mass properties are given: ``scene.add_rigid_body(None, mass_properties=...)``."""
+
+    kind = "none"
+
+    def _unit_properties(self) -> MassProperties:
+        raise checks.fail("shape", None, "a body without a shape has no volume: give mass_properties= (a "
+                                         "MassProperties) instead of a density or mass")
+
+    @property
+    def volume(self) -> float:
+        """No shape, no volume: 0.0 m^3."""
+        return 0.0
+
+    @property
+    def bounding_radius(self) -> float:
+        return 0.0
+
+    def __repr__(self) -> str:
+        return "NoShape()"

@@ -64,6 +64,8 @@ class _Writer:
     def shape(self, parent: Sdf.Path, shape, restitution: float, friction: float, owner: str) -> bool:
         """A collision shape prim under ``parent`` in its frame; False when UsdPhysics has no such shape."""
         path, kind = parent.AppendChild("collision"), shape.kind
+        if kind == "none":   # a body without a shape: its MassAPI alone, as UsdPhysics allows
+            return True
         if kind == "box":
             cube = UsdGeom.Cube.Define(self.stage, path)
             cube.CreateSizeAttr(2.0)

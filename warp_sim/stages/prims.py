@@ -324,7 +324,8 @@ class _MeshWriter(_PrimWriter):
 #: Number of ``BodySpec.size`` values per body kind, and what they are.
 BODY_SIZES = {"sphere": (1, "(radius,)"), "box": (3, "half extents (hx, hy, hz)"),
               "capsule": (2, "(radius, half_height)"), "cylinder": (2, "(radius, half_height)"),
-              "mesh": (0, "() (the shape is in points/faces)"), "points": (0, "() (the shape is in points)")}
+              "mesh": (0, "() (the shape is in points/faces)"), "points": (0, "() (the shape is in points)"),
+              "none": (0, "() (a body without a shape: no Geom child)")}
 
 #: Largest accepted deviation of a body_q row's norm from 1.
 QUAT_NORM_TOLERANCE = 1e-3
@@ -371,6 +372,8 @@ class _ShapeXformWriter(_PrimWriter):
         if shaped:
             pad = self.radius if kind == "points" else 0.0
             self.lo, self.hi = points.min(axis=0) - pad, points.max(axis=0) + pad
+        elif kind == "none":
+            self.lo = self.hi = np.zeros(3)
         else:
             r, h = size[0], size[-1]
             half = {"sphere": (r, r, r), "box": (1.0, 1.0, 1.0), "capsule": (r, h + r, r), "cylinder": (r, h, r)}[kind]
@@ -381,6 +384,8 @@ class _ShapeXformWriter(_PrimWriter):
         xform = UsdGeom.Xform.Define(stage, self.path)
         self.translate_op = xform.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble)
         self.orient_op = xform.AddOrientOp(UsdGeom.XformOp.PrecisionFloat)
+        if self.kind == "none":   # a body without a shape: its Xform alone
+            return
         path, size = self.path.AppendChild("Geom"), self.size
         if self.kind == "sphere":
             geom = UsdGeom.Sphere.Define(stage, path)

@@ -59,7 +59,7 @@ class BodySpec:
 
     name: str
     index: int                          # row in the per-frame body_x (B, 3) and body_q (B, 4; x y z w) arrays
-    kind: str                           # "sphere" | "box" | "capsule" | "cylinder" | "mesh" | "points"
+    kind: str                           # "sphere" | "box" | "capsule" | "cylinder" | "mesh" | "points" | "none"
     size: tuple = ()                    # [m] sphere (r,); box (hx, hy, hz); capsule/cylinder (r, half_height)
     points: np.ndarray | None = None    # [m] mesh: (V, 3) vertices, body frame; points: (N, 3) positions
     faces: np.ndarray | None = None     # mesh: (F, 3) triangle vertex indices
