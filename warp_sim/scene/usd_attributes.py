@@ -1,5 +1,6 @@
 """warp_sim's own attributes on USD prims (the ``warpSim:`` namespace): cloth on a Mesh, particles on Points, an
-emitter on an Xform. Read by Scene.from_usd, written by Scene.to_usd; documented in docs/usd.md.
+emitter on an Xform. Read by Scene.from_usd, written by Scene.to_usd; documented in docs/usd.md. Also which API
+schemas a prim has applied, other solvers' included (``applied_schemas``).
 
 Geometry (points, velocities, widths, the prim's transform) is in the stage's units and axes like any USD data;
 the ``warpSim:`` values are SI (kg, kg/m^2, N/m, N s/m, m, s, degrees for a cone's spread).
@@ -13,6 +14,8 @@ from pxr import Sdf, UsdGeom
 from . import usd_values
 
 CLOTH, PARTICLES, EMITTER = "warpSim:cloth", "warpSim:particles", "warpSim:emitter"
+FOREIGN = ("Physx", "Newton", "Mujoco")   # other solvers' schema prefixes: read by them, not here
+FOREIGN_NOTE = "other solvers' schemas (ignored)"   # Scene.from_usd's one warning of them, naming the prims
 # name -> (Sdf type, the add_* keyword it feeds)
 CLOTH_ATTRIBUTES = {"warpSim:mass": (Sdf.ValueTypeNames.Float, "mass"),
                     "warpSim:density": (Sdf.ValueTypeNames.Float, "density"),
@@ -36,6 +39,14 @@ EMITTER_ATTRIBUTES = {"warpSim:rate": (Sdf.ValueTypeNames.Float, "rate"),
                       "warpSim:shape": (Sdf.ValueTypeNames.Token, "shape"),
                       "warpSim:radius": (Sdf.ValueTypeNames.Float, "radius"),
                       "warpSim:seed": (Sdf.ValueTypeNames.Int, "seed")}
+
+
+def applied_schemas(prim) -> list[str]:
+    """The API schemas applied to ``prim``, as authored in its composed ``apiSchemas`` metadata, with those usd-core
+    has no definition of (``PhysxRigidBodyAPI``, ``NewtonXxxAPI``, ``PhysicsJointStateAPI:angular``), which
+    ``prim.GetAppliedSchemas()`` leaves out."""
+    authored = prim.GetPrimTypeInfo().GetAppliedAPISchemas()
+    return list(dict.fromkeys(str(name) for name in [*prim.GetAppliedSchemas(), *authored]))
 
 
 def triangles(mesh, time) -> np.ndarray:

@@ -27,7 +27,7 @@ import numpy as np
 from pxr import Gf, UsdGeom, UsdPhysics
 
 from ..util.rotations import matrix_to_quat, quat_to_matrix
-from . import usd_values
+from . import usd_attributes, usd_values
 from .joints import AXES, D6, Drive, make_joint, to_body_frame
 
 #: the parser's joint kinds and warp_sim's (a plain UsdPhysics.Joint is usd-core's "D6Joint")
@@ -42,7 +42,6 @@ SIDES = ("physics:body0", "physics:body1")
 VALID_SIDE = ("expected one target: a rigid body (a prim with PhysicsRigidBodyAPI, or a prim inside one), a static "
               "collider (a PhysicsCollisionAPI prim without a rigid body) or none (the world)")
 FLT_MAX = float(np.finfo(np.float32).max)   # usd-core's "no limit" for a drive's maxForce
-FOREIGN = ("Physx", "Newton", "Mujoco")         # other solvers' schemas: read by them, not here
 
 
 class _Side:
@@ -236,7 +235,7 @@ class _JointReader:
 
     def unhonoured(self, prim, kind: str) -> None:
         """Note (warned once per kind, naming the prims) what ``prim`` authors that warp_sim does not honour."""
-        applied = _applied(prim)
+        applied = usd_attributes.applied_schemas(prim)
         drives = {name.split(":", 1)[1] for name in applied if name.startswith("PhysicsDriveAPI:")}
         if drives - (set(AXES) if kind == "d6" else {DRIVEN[kind][0]} if kind in DRIVEN else set()):
             self.note("drives on axes the joint does not move (ignored)", prim.GetPath())
@@ -247,8 +246,8 @@ class _JointReader:
         if any(name.startswith("PhysicsJointStateAPI") for name in applied):
             self.note("joint states (PhysicsJointStateAPI ignored: the bodies start where the stage puts them)",
                       prim.GetPath())
-        if any(name.startswith(FOREIGN) for name in applied):   # PhysxJointAPI, mimic joints, ...
-            self.note("other solvers' schemas (ignored)", prim.GetPath())
+        if any(name.startswith(usd_attributes.FOREIGN) for name in applied):   # PhysxJointAPI, mimic joints, ...
+            self.note(usd_attributes.FOREIGN_NOTE, prim.GetPath())
 
     # ---- authored values -------------------------------------------------------------------------------------
     def get(self, prim, name: str, default):
@@ -281,14 +280,6 @@ class _JointReader:
         if not value > 0.0:
             raise usd_values.error(prim.GetPath(), name, value, f"expected a {what} > 0 (inf: unbreakable)")
         return None if math.isinf(value) else value * unit
-
-
-def _applied(prim) -> list[str]:
-    """The API schemas applied to ``prim``, with those usd-core has no definition of (PhysxJointAPI,
-    PhysicsJointStateAPI), which ``GetAppliedSchemas`` leaves out."""
-    listed = prim.GetMetadata("apiSchemas")
-    raw = list(listed.ApplyOperations([])) if listed else []
-    return list(dict.fromkeys(str(name) for name in [*prim.GetAppliedSchemas(), *raw]))
 
 
 def _rotation(path, name: str, quat) -> np.ndarray:
