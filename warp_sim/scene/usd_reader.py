@@ -19,8 +19,8 @@ from pxr import Gf, Usd, UsdGeom, UsdPhysics
 
 from ..util import checks
 from ..util.rotations import matrix_to_quat
-from . import usd_attributes, usd_joints, usd_values
-from .shapes import Box, Capsule, Cylinder, MassProperties, MeshShape, Sphere
+from . import usd_attributes, usd_bodies, usd_geometry, usd_joints, usd_values
+from .shapes import Box, Capsule, Cylinder, MeshShape, Sphere
 from .usd_units import StageUnits
 
 EARTH_GRAVITY = 9.80665   # [m/s^2], the schema's default magnitude
@@ -118,12 +118,14 @@ class _Reader:
         return repr(self.file) if self.file else "the stage"
 
     # ---- shapes ------------------------------------------------------------------------------------------------
-    def _shape(self, kind: str, desc, prim_path: str):
-        """(warp_sim shape, its frame in the body's or world's frame (R, p [m])) of a shape desc, or None."""
+    def _shape(self, kind: str, desc, prim_path: str, static: bool = False):
+        """(warp_sim shape, its frame in the body's or world's frame (R, p [m])) of a shape desc (``static``: a
+        static collider's), or None."""
         u = self.units
         R, p = _rotation(desc.localRot), u.length(_vec(desc.localPos))
-        # sizes are the magnitudes: the values were checked (usd_values), and the sign of an even number of negative
-        # scales (a turn by 180 degrees, no mirror) is in the prim's rotation already
+        # sizes are the magnitudes: the values were checked (usd_values); usd-core puts a mirror in the signs of all
+        # three scales with a turn by 180 degrees in the rotation, and a box, sphere, capsule or cylinder is its own
+        # mirror image (a mesh takes the signs: usd_geometry)
         with usd_values.named(prim_path):
             if kind == "CubeShape":
                 return Box(u.length(np.abs(_vec(desc.halfExtents)))), R, p
@@ -134,8 +136,8 @@ class _Reader:
                 return (make(float(u.length(abs(desc.radius))), float(u.length(abs(desc.halfHeight)))),
                         R @ AXIS_ROTATIONS[str(desc.axis).rsplit(".", 1)[-1]], p)
             if kind == "MeshShape":
-                mesh = _mesh(self.stage.GetPrimAtPath(prim_path), self.time, u.length(np.abs(_vec(desc.meshScale))))
-                return mesh, R, p
+                return usd_geometry.mesh_shape(self.stage.GetPrimAtPath(prim_path), self.time, _vec(desc.meshScale),
+                                               u, (R, p), static, self.skipped)
         return None
 
     def _check_shape(self, path: str) -> None:
@@ -146,9 +148,16 @@ class _Reader:
         usd_values.mass(prim, self.time)
 
     def _material(self, desc) -> tuple[float, float, float | None]:
-        """(restitution, friction, density [kg/m^3] or None) of a shape's bound physics material."""
+        """(restitution, friction, density [kg/m^3] or None) of a shape's bound physics material: usd-core's binding,
+        or a material:binding:physics without MaterialBindingAPI, read as PhysX reads it (warned once)."""
         materials = self.descs.get("RigidBodyMaterial", {})
-        for path in desc.materials:
+        paths = [str(path) for path in desc.materials if str(path) in materials]
+        if not paths:
+            bound, binder = usd_bodies.bound_material(self.stage.GetPrimAtPath(str(desc.primPath)))
+            paths = [str(bound.GetPath())] if bound is not None else []
+            if binder is not None:
+                self.skipped.setdefault(usd_bodies.UNBOUND_NOTE, []).append(str(binder.GetPath()))
+        for path in paths:
             material = materials.get(str(path))
             if material is not None:
                 usd_values.material(self.stage.GetPrimAtPath(path))
@@ -174,15 +183,17 @@ class _Reader:
                 for shape_path, kind, shape_desc in enabled:
                     self._collider(shape_path, kind, shape_desc, body=desc)
                 continue
+            if not enabled and len(parts) < len(list(desc.collisions)):   # cones, custom shapes: warned as such
+                self.skipped.setdefault("rigid bodies whose only collision shapes are not simulated (left out)",
+                                        []).append(path)
+                continue
             self._body(path, desc, parts, enabled)
 
     def _body(self, path: str, desc, parts, enabled) -> None:
         """One dynamic body: collision shapes from ``enabled``, mass from usd-core over every shape of ``parts``
-        (it leaves out a shape whose collisions are disabled, so warp_sim does too)."""
+        (it leaves out a shape whose collisions are disabled, so warp_sim does too); without an enabled shape, a
+        body that collides with nothing, its mass from its MassAPI (usd_bodies)."""
         u = self.units
-        if not enabled:
-            self.skipped.setdefault("rigid bodies without an enabled collision shape", []).append(path)
-            return
         prim = self.stage.GetPrimAtPath(path)
         usd_values.transform(prim, self.time, rigid=True)
         usd_values.body(prim, self.time)
@@ -197,22 +208,22 @@ class _Reader:
                                         []).append(path)
                 return
             built[shape_path] = made
-        restitution, friction, _ = self._material(enabled[0][2])
-        mass, diagonal, com, axes = UsdPhysics.RigidBodyAPI(prim).ComputeMassProperties(
-            lambda shape_prim: self._mass_information(built.get(str(shape_prim.GetPath()))))
-        if mass <= 0.0:
-            self.skipped.setdefault("bodies of zero mass", []).append(path)
-            return
-        colliding = [built[shape_path] for shape_path, _, _ in enabled]
-        if len(colliding) == 1:
-            shape, Rs, ps = colliding[0]
-        else:   # a compound: its parts' surfaces in the body's frame, one closed mesh
-            shape, Rs, ps = _compound(colliding), np.eye(3), np.zeros(3)
-        P = _rotation(axes)
-        inertia_body = P @ np.diag(u.inertia(_vec(diagonal))) @ P.T
-        com_body = u.length(_vec(com))
-        with usd_values.named(path):   # the body's mass properties, from its MassAPI and its shapes'
-            properties = MassProperties(u.mass(mass), Rs.T @ (com_body - ps), Rs.T @ inertia_body @ Rs)
+        if enabled:
+            restitution, friction, _ = self._material(enabled[0][2])
+            values = usd_bodies.computed(prim, self.time, built, u,
+                                         unbound=[p for p, _, d in parts if not list(d.materials)])
+            colliding = [built[shape_path] for shape_path, _, _ in enabled]
+            if len(colliding) == 1:
+                shape, Rs, ps = colliding[0]
+            else:   # a compound: its parts' surfaces in the body's frame, one closed mesh
+                shape, Rs, ps = _compound(colliding), np.eye(3), np.zeros(3)
+            source = "usd-core's mass computation from its MassAPI and its collision shapes"
+        else:   # no collider: a body that collides with nothing (a joint's anchor), its mass its MassAPI's
+            restitution, friction = 0.0, 0.5
+            values = usd_bodies.without_collider(prim, self.time, u, self.skipped)
+            shape, Rs, ps = None, np.eye(3), np.zeros(3)
+            source = "its PhysicsMassAPI, as it has no enabled collider"
+        properties = usd_bodies.properties(path, values, u, Rs, ps, source)
         rotation, position = _rigid(_matrix(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(self.time)))
         R_world = u.rotation(rotation)             # from the prim's xform in double (the desc's pose is float)
         origin = u.point(position) + R_world @ ps
@@ -222,7 +233,8 @@ class _Reader:
         spin = to_world @ np.radians(_vec(desc.angularVelocity))
         track = self._track(prim, Rs, ps) if desc.kinematicBody else None
         with usd_values.named(path, {"position": "xformOp:translate", "linear_velocity": "physics:velocity",
-                                     "angular_velocity": "physics:angularVelocity"}):
+                                     "angular_velocity": "physics:angularVelocity", "mass": "physics:mass",
+                                     "inertia": "physics:diagonalInertia"}):
             index = self.scene.add_rigid_body(shape, mass_properties=properties, position=origin,
                                               orientation=matrix_to_quat(R_world @ Rs), linear_velocity=velocity,
                                               angular_velocity=spin, restitution=restitution, friction=friction,
@@ -250,23 +262,6 @@ class _Reader:
             orientations.append(matrix_to_quat(R @ Rs))
         return keys, positions, orientations
 
-    def _mass_information(self, made):
-        """usd-core's callback: a shape's volume, unit-density inertia and centre of mass, in stage units."""
-        info = UsdPhysics.RigidBodyAPI.MassInformation()
-        if made is None:
-            info.volume = -1.0   # not a shape warp_sim can build: usd-core leaves it out
-            return info
-        shape, Rs, ps = made
-        unit = shape.mass_properties(density=1.0)
-        length = self.units.meters_per_unit
-        info.volume = unit.mass / length ** 3
-        info.inertia = Gf.Matrix3f(*(unit.inertia / length ** 5).ravel().tolist())   # density 1 in stage units
-        info.centerOfMass = Gf.Vec3f(*(unit.com / length).tolist())
-        info.localPos = Gf.Vec3f(*(ps / length).tolist())
-        q = matrix_to_quat(Rs)
-        info.localRot = Gf.Quatf(float(q[3]), float(q[0]), float(q[1]), float(q[2]))
-        return info
-
     # ---- static colliders ----------------------------------------------------------------------------------------
     def colliders(self) -> None:
         for path, (kind, desc) in self._all_shapes().items():
@@ -290,7 +285,7 @@ class _Reader:
                                                                         self.scene.planes))
             self._link(path, "plane", index)
             return
-        made = self._shape(kind, desc, path)
+        made = self._shape(kind, desc, path, static=True)
         if made is None:
             return
         shape, Rs, ps = made
@@ -314,10 +309,15 @@ class _Reader:
                            if list(getattr(d, "filteredCollisions", []) or [])})
         if filtered:
             self.skipped.setdefault("filtered collision pairs (they collide here)", []).extend(filtered)
-        for prim in self.stage.Traverse():
-            foreign = [name for name in prim.GetAppliedSchemas() if name.startswith(("Physx", "Newton", "Mujoco"))]
-            if foreign:
-                self.skipped.setdefault("other solvers' schemas (ignored)", []).append(str(prim.GetPath()))
+        noted = self.skipped.pop(usd_attributes.FOREIGN_NOTE, [])   # the joints' (found again below)
+        foreign = {str(path): [] for path in noted}
+        for prim in self.stage.Traverse(Usd.TraverseInstanceProxies()):   # the raw apiSchemas: unregistered ones too
+            names = [name for name in usd_attributes.applied_schemas(prim) if name.startswith(usd_attributes.FOREIGN)]
+            if names:
+                foreign[str(prim.GetPath())] = names
+        if foreign:
+            self.skipped[usd_attributes.FOREIGN_NOTE] = [f"{path} ({', '.join(names)})" if names else path
+                                                         for path, names in foreign.items()]
 
     def warn_skipped(self) -> None:
         for what, paths in self.skipped.items():
@@ -354,17 +354,6 @@ def _open(source):
         raise checks.fail("path_or_stage", path, f"cannot be read as USD ({str(error).strip().splitlines()[-1]})") \
             from None
     return stage, os.path.abspath(path)
-
-
-def _mesh(prim, time, scale: np.ndarray) -> MeshShape:
-    """A UsdGeom.Mesh's points (scaled to the body's world scale) and faces (fans) as a MeshShape: solid when
-    closed, a surface otherwise."""
-    mesh = UsdGeom.Mesh(prim)
-    points = np.array(mesh.GetPointsAttr().Get(time), dtype=np.float64) * scale
-    surface = trimesh.Trimesh(points, usd_attributes.triangles(mesh, time), process=False)
-    if str(mesh.GetOrientationAttr().Get()) == "leftHanded":
-        surface.invert()
-    return MeshShape(surface, solid=bool(surface.is_watertight))
 
 
 def _compound(parts) -> MeshShape:
@@ -404,6 +393,6 @@ def read(scene_class, source, time=0, precision: str = "float32"):
     scene = reader.scene
     if scene.body_count == 0 and scene.particle_count == 0 and not scene.emitters:
         raise checks.fail("path_or_stage", reader.file or "<stage>",
-                          "has nothing to simulate: no enabled rigid body (PhysicsRigidBodyAPI with a collision "
-                          "shape), no warpSim:cloth mesh, warpSim:particles points or warpSim:emitter")
+                          "has nothing to simulate: no enabled rigid body (PhysicsRigidBodyAPI), no warpSim:cloth "
+                          "mesh, warpSim:particles points or warpSim:emitter")
     return scene

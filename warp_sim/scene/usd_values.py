@@ -8,11 +8,12 @@ attributes are read here, before the parser's descriptions are used. Units: as a
 kg per ``kilogramsPerUnit``); the checks are of sign, finiteness and consistency, not of size, which
 ``scene.ranges`` checks against the precision once converted to SI.
 
-A mirrored transform (an odd number of negative scales along a rigid shape's prim and its ancestors) is refused
-for bodies and colliders: a rigid pose is a rotation, and the overlay writes a body back as translate, orient and
-its scale's magnitudes, so the mirror of the body's own children could not be kept; a mirrored mesh is also
-turned inside out. A box, sphere, capsule or cylinder is its own mirror image, so a rotation of 180 degrees gives
-the same shape. Cloth, particles and emitters take their points through the transform and may be mirrored.
+A mirror (an odd number of negative scales) at or above a simulated rigid body's prim is refused: a rigid pose is
+a rotation, and the overlay writes a body back as translate, orient and its scale's magnitudes, so the mirror of
+the body's own children could not be kept. Below the body (on its shapes' prims) and on static colliders a mirror
+is read: a mesh takes the signed scale with its winding reversed (usd_geometry), and a box, sphere, capsule or
+cylinder is its own mirror image. Cloth, particles and emitters take their points through the transform and may
+be mirrored.
 """
 from __future__ import annotations
 
@@ -125,9 +126,10 @@ def gravity(prim, units: StageUnits, precision: str) -> None:
 # ---- transforms ------------------------------------------------------------------------------------------------------
 def transform(prim, time, rigid: bool, when: str = "") -> None:
     """Every xform op of ``prim`` and its ancestors at ``time`` finite and invertible (no zero scale); for a rigid
-    shape (a body's or a collider's), their product not mirrored (see the module's docstring). ``when``: words
-    after the op's name in an error (" at time code 10")."""
+    body or shape (``rigid``), the ops at or above its simulated body's prim not mirrored (see the module's
+    docstring). ``when``: words after the op's name in an error (" at time code 10")."""
     mirrored = []
+    body = _simulated_body(prim) if rigid else None
     current = prim
     while current and not current.IsPseudoRoot():
         xformable = UsdGeom.Xformable(current)
@@ -137,13 +139,27 @@ def transform(prim, time, rigid: bool, when: str = "") -> None:
             if xformable.GetResetXformStack():
                 break
         current = current.GetParent()
-    if rigid and len(mirrored) % 2:
+    mirrored = [m for m in mirrored if body is not None and body.HasPrefix(m[0])]
+    if len(mirrored) % 2:
         path, name, value = mirrored[0]
-        whose = "the prim" if path == prim.GetPath() else str(prim.GetPath())
-        raise error(path, name, value, f"it mirrors {whose} (a negative determinant), and a rigid body or collider "
-                                       "cannot be mirrored (its pose is a rotation; a mirrored mesh is inside out); "
-                                       "use positive scales and a rotation of 180 degrees where needed (a box, "
-                                       "sphere, capsule or cylinder is its own mirror image)", when)
+        whose = "the rigid body" if path == body else f"the rigid body {body}"
+        raise error(path, name, value, f"it mirrors {whose} (a negative determinant), whose pose is a rotation and "
+                                       "is written back with positive scales; put the mirror on the prims below the "
+                                       "body (its collision and visual meshes), or use positive scales and a "
+                                       "rotation of 180 degrees (a box, sphere, capsule or cylinder is its own "
+                                       "mirror image)", when)
+
+
+def _simulated_body(prim):
+    """The path of the rigid body ``prim`` is, or is inside of, if it is simulated (not rigidBodyEnabled = false);
+    else None (the shapes of none, or of a disabled body, are static colliders)."""
+    current = prim
+    while current and not current.IsPseudoRoot():
+        if current.HasAPI(UsdPhysics.RigidBodyAPI):
+            enabled = UsdPhysics.RigidBodyAPI(current).GetRigidBodyEnabledAttr().Get()
+            return current.GetPath() if enabled is None or enabled else None
+        current = current.GetParent()
+    return None
 
 
 def _op(path, op, time, mirrored: list, when: str) -> None:
