@@ -253,7 +253,8 @@ def _enclosing_volume(vertices: np.ndarray, axes: np.ndarray) -> float:
 
 class MeshShape(Shape):
     """A solid of uniform density bounded by a closed triangle mesh (a ``trimesh.Trimesh``, vertices in [m]),
-    or with ``solid=False`` a surface (e.g. an open terrain) that only a static collider can use.
+    or with ``solid=False`` a surface (e.g. an open terrain) that only a static collider can use; a surface collides
+    from both sides (which side a body is on comes from where it is, not from the winding).
 
     The mesh is copied (geometry only) and checked; each failure raises ValueError saying how to fix it:
     - empty, non-finite vertices, face indices out of range; a surface: also zero-area faces,
