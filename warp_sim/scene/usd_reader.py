@@ -204,8 +204,8 @@ class _Reader:
         for shape_path, kind, shape_desc in parts:
             made = self._shape(kind, shape_desc, shape_path)
             if made is None or (isinstance(made[0], MeshShape) and not made[0].solid):
-                self.skipped.setdefault("dynamic bodies with open meshes or planes (need a closed shape)",
-                                        []).append(path)
+                self.skipped.setdefault("dynamic bodies with open meshes or planes (need a closed shape: author "
+                                        "physics:approximation = 'convexHull' on the mesh)", []).append(path)
                 return
             built[shape_path] = made
         if enabled:
