@@ -24,6 +24,7 @@ def checkpointed(integrator="rk4"):
     traj = Trajectory(sim.model, FRAMES, FPS)
     run = Checkpoints(sim, FRAMES, FPS, SUBSTEPS, Controls(sim.model, FRAMES, {}, set()))
     run.forward(traj)
+    traj.track(["particle_x", "particle_v"])   # what chain_loss reads
     with wp.Tape() as tape:
         loss = chain_loss(traj)
     tape.backward(loss)
@@ -31,31 +32,38 @@ def checkpointed(integrator="rk4"):
 
 
 def test_one_state_is_stored_per_frame_and_each_frames_tape_is_dropped():
+    """The trajectory's rows are the stored states (with the bodies' momenta, here none, beside them); going back,
+    each frame's tape and the state it starts from are dropped before the next frame, whose steps reuse the same
+    pool of scratch states."""
     sim, traj, run = checkpointed()
-    assert run.count == FRAMES + 1 and run.states.shape == (FRAMES + 1, sim.dynamics.layout.size)
+    assert run.count == FRAMES + 1 and run.rest == {}
+    assert run.stored_bytes == (FRAMES + 1) * sim.dynamics.layout.size * 8
     forward = ws.Simulator(chain(), "rk4")
     rows = [arrays for _, _, arrays in forward.frames((FRAMES + 1) / FPS, FPS, SUBSTEPS)]
     assert np.array_equal(traj.particle_x.numpy(), np.stack([row["particle_x"] for row in rows]))
+    assert np.array_equal(traj.particle_v.numpy(), np.stack([row["particle_v"] for row in rows]))
 
     visited, previous = [], []
 
     def on_frame(frame, tape):
-        assert all(ref() is None for ref in previous), "the last frame's tape or one of its states is still alive"
+        assert all(ref() is None for ref in previous), "the last frame's tape or its start state is still alive"
         previous.clear()
         previous.append(weakref.ref(tape))
         size = sim.dynamics.layout.size
         states = {id(a): a for launch in tape.launches if not callable(launch) for a in launch[3]
                   if isinstance(a, wp.array) and a.shape == (size,)}
-        previous.extend(weakref.ref(a) for a in states.values())
-        visited.append((frame, len(tape.launches), len(states)))
+        pooled = {id(state.y) for state in run.pool.states}
+        previous.extend(weakref.ref(a) for key, a in states.items() if key not in pooled)
+        visited.append((frame, len(tape.launches), len(states), run.pool.size))
 
     run.backward(traj, on_frame)
-    frames, launches, states = zip(*visited)
+    frames, launches, states, pooled = zip(*visited)
     print(f"{FRAMES} frames of {SUBSTEPS} rk4 steps: each frame's tape {launches[1]} launches over "
-          f"{states[1]} flat states, dropped before the next")
+          f"{states[1]} flat states ({pooled[0]} of them a pool reused frame after frame), dropped before the next")
     assert frames == tuple(range(FRAMES, 0, -1))
     assert len(set(launches[:-1])) == 1 and launches[-1] == launches[0] + 2   # frame 1 also copies the initial state
     assert states[1] >= 8 * SUBSTEPS   # rk4: four slopes, three trial states and the end state a step
+    assert len(set(pooled)) == 1 and pooled[0] >= 8 * SUBSTEPS - 1
 
 
 def test_the_checkpointed_gradient_is_one_tape_over_the_whole_run():
@@ -63,6 +71,7 @@ def test_the_checkpointed_gradient_is_one_tape_over_the_whole_run():
     start = run.backward(traj)
     whole = ws.Simulator(chain(), "rk4", differentiable=True)
     first, full = whole.state, Trajectory(whole.model, FRAMES, FPS)
+    full.track(["particle_x", "particle_v"])
     with wp.Tape() as tape:
         wp.copy(full.particle_x[0], first.particle_x)
         wp.copy(full.particle_v[0], first.particle_v)

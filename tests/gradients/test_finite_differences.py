@@ -1,6 +1,7 @@
 """Gradients against central differences (float64, steps of 1e-5 relative, forward-only Simulators for the
 differences): a hanging spring chain's loss, read at every frame, against stiffness and mass within 1e-4 relative
-under symplectic Euler and rk4, and against gravity, rest lengths and damping; a spinning box's final orientation
+under symplectic Euler and rk4 (and implicit Euler: 1e-2 with CG's default tolerance, 1e-6 with CG to 1e-10), and
+against gravity, rest lengths and damping; a spinning box's final orientation
 against its initial angular velocity; a pushed box's final position against its mass, under a constant force."""
 import numpy as np
 import pytest
@@ -119,3 +120,26 @@ def test_box_mass_under_a_constant_force():
 
     differences = central_difference(value, np.array([2.0]), STEP)
     assert relative_error(grads["body_mass"], differences) < TOLERANCE
+
+
+@pytest.mark.parametrize("tolerance, bound", [(1.0e-3, 1.0e-2), (1.0e-10, 1.0e-6)])
+def test_chain_stiffness_and_mass_under_implicit_euler(tolerance, bound):
+    """Implicit Euler's step solves its linear system by CG, off the tape; the tape's adjoint of the solve is the
+    same CG on the same (symmetric) matrix. With CG's default tolerance (1e-3 relative) the forward runs the
+    differences come from carry errors of that size, the gradient too; to 1e-10 both are near exact."""
+    def integrator():
+        return ws.ImplicitEuler(tolerance=tolerance)
+
+    value, grads = ws.gradient(chain(), chain_loss, ["spring_stiffness", "particle_mass"], seconds=SECONDS,
+                               substeps=SUBSTEPS, integrator=integrator())
+
+    def chain_value(**changes) -> float:
+        return forward_value(chain(**changes), chain_loss, SECONDS, substeps=SUBSTEPS, integrator=integrator())
+
+    assert value == chain_value()
+    stiffness = central_difference(lambda k: chain_value(stiffness=k), CHAIN_STIFFNESS, STEP)
+    mass = central_difference(lambda m: chain_value(mass=np.r_[CHAIN_MASS[0], m]), CHAIN_MASS[1:], STEP)
+    errors = relative_error(grads["spring_stiffness"], stiffness), relative_error(grads["particle_mass"][1:], mass)
+    print(f"implicit Euler, CG to {tolerance:g}: stiffness {errors[0]:.1e}, mass {errors[1]:.1e} relative to central "
+          f"differences")
+    assert max(errors) < bound

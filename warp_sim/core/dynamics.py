@@ -18,6 +18,7 @@ class Dynamics:
     ``forces`` (the accumulators) before the components turn them into rates.
     particle_force: None, or a force on each particle (vec3) [N] that the particles' accumulator starts from, in a
     differentiable run (the frame's row of a per-frame control, ws.gradient)
+    pool: None, or where ``new_state`` takes its states from (gradients.pool.StatePool, in ws.gradient)
 
     In a differentiable run (``model.differentiable``) every new state has gradients and every evaluation of the
     forces writes fresh accumulators (``Forces.renew``).
@@ -31,13 +32,21 @@ class Dynamics:
         self.layout = StateLayout([field for c in self.components for field in c.fields])
         self.position_rates_need_positions = any(c.position_rates_need_positions for c in self.components)
         self.particle_force = None
+        self.pool = None
 
     def component(self, name: str) -> Component | None:
         """The component called ``name`` ("particles", "bodies"), or None when absent."""
         return next((c for c in self.components if c.name == name), None)
 
     def new_state(self) -> State:
-        """A zeroed state of this system's layout on the model's device (with gradients in a differentiable run)."""
+        """A zeroed state of this system's layout on the model's device (with gradients in a differentiable run),
+        taken from ``pool`` where one is set (a differentiable run's frame of scratch states: gradients.pool)."""
+        if self.pool is not None:
+            return self.pool.take()
+        return self.fresh_state()
+
+    def fresh_state(self) -> State:
+        """new_state() newly allocated, never from the pool."""
         state = State(self.layout, self.model.scalar, self.model.device, self.model.differentiable)
         for component in self.components:
             component.attach(state)

@@ -5,7 +5,8 @@
 - ``controls``: per-frame forces and torques held over each frame;
 - ``parameters``: the names of ``wrt`` and each gradient from the adjoint;
 - ``checkpoints``: the forward run storing a state per frame, and the backward pass recomputing each frame on a
-  tape of its own.
+  tape of its own;
+- ``pool``: one frame's scratch states, reused frame after frame.
 """
 from .run import gradient
 from .trajectory import Trajectory

@@ -1,13 +1,16 @@
 """A differentiable run checkpointed per frame: the state stored at every frame, each frame's substeps recomputed
 on a tape of its own in the backward pass, so memory follows the frames, not the substeps.
 
-Going forward nothing is recorded: frame by frame the Simulator steps, and its state (the flat buffer, every
-field) is copied into row k of ``states``. Going back, from the last frame to the first, frame k is stepped again
-from a copy of row k - 1 while a new wp.Tape records it; the tape's backward takes the adjoint of its last state
-(the first state's of frame k + 1, plus the loss's adjoint of trajectory row k) to its first state's, adding into
-the gradients of the model's arrays and the controls on the way; then the tape and every state of the frame are
-dropped. Peak memory: the stored states (frames + 1 of them), the trajectory with its gradient, and one frame's
-tape (its substeps' states and scratch states, with their gradients).
+The stored states are the trajectory's arrays (gradients.trajectory: particle_x, particle_v, body_x, body_q, row
+k at frame k) and, for the rest of the state (the bodies' momenta), arrays of the same form here: one copy of
+each state, which the loss reads as it is. Going forward nothing is recorded: frame by frame the Simulator steps
+and its state is copied into row k. Going back, from the last frame to the first, frame k is stepped again from
+row k - 1 while a new wp.Tape records it; the tape's backward takes the adjoint of its last state (the first
+state's of frame k + 1, plus the loss's adjoint of the tracked trajectory rows k) to its first state's, adding
+into the gradients of the model's arrays and the controls on the way; then the tape is dropped. Every state a
+frame makes (its steps' ends, the solver's stages) comes from one frame's pool (gradients.pool), reused frame
+after frame, forward and back. Peak memory: the stored states (frames + 1 of them), the gradients of the fields
+the loss reads, and one frame's pool and tape (its states with their gradients, accumulators, copies).
 """
 from __future__ import annotations
 
@@ -15,49 +18,71 @@ import warp as wp
 
 from ..core.state import State
 from .controls import Controls
-from .trajectory import Trajectory
+from .pool import StatePool
+from .trajectory import FIELDS, Trajectory, values_of
 
 
 class Checkpoints:
     """The run of ``frames`` frames of 1 / fps seconds, ``substeps`` steps each, of a differentiable Simulator.
 
-    states: the stored states, (frames + 1, state size) of the model's scalar, row k the flat state at frame k
-    times: the simulator's time at each frame [s] (what a recomputed frame starts from)
-    count: the number of stored states (frames + 1)
+    rest: the stored rows of the state's fields a trajectory does not hold (body_P, body_L): name -> (frames + 1,
+    count) array; times: the simulator's time at each frame [s] (what a recomputed frame starts from)
+    count: the number of stored states (frames + 1); stored_bytes: their size, trajectory rows included [bytes]
+    pool: the frame's scratch states (gradients.pool.StatePool)
     """
 
     def __init__(self, sim, frames: int, fps: float, substeps: int, controls: Controls):
         self.sim, self.frames, self.fps, self.substeps, self.controls = sim, frames, fps, substeps, controls
-        self.states = wp.zeros((frames + 1, sim.dynamics.layout.size), dtype=sim.model.scalar, device=sim.device)
+        held = {name for name, _, _ in FIELDS}
+        self.rest = {}
+        for field in sim.dynamics.layout.fields:
+            if field.name not in held:
+                like = getattr(sim.state, field.name)
+                self.rest[field.name] = values_of(wp.zeros((frames + 1, field.count), dtype=like.dtype,
+                                                           device=sim.device))
         self.times = [0.0] * (frames + 1)
+        self.pool = StatePool(sim.dynamics)
+        self._start = None   # the state a forward frame starts from (not the pool's: the pool is reused)
 
     @property
     def count(self) -> int:
-        return self.states.shape[0]
+        return self.frames + 1
+
+    @property
+    def stored_bytes(self) -> int:
+        return self.count * self.sim.dynamics.layout.size * wp.types.type_size_in_bytes(self.sim.model.scalar)
 
     def _store(self, frame: int, traj: Trajectory) -> None:
         state = self.sim.state
-        wp.copy(self.states[frame], state.y)   # no gradient: a row holds values only
-        self.times[frame] = self.sim.time
         traj.store(frame, state)
+        for name, rows in self.rest.items():
+            wp.copy(rows[frame], getattr(state, name))
+        self.times[frame] = self.sim.time
 
     def _step(self, frame: int) -> None:
         """Frame ``frame`` (1 to frames): the controls of the interval before it held, a step of 1 / fps seconds in
-        ``substeps`` equal pieces (``Simulator.step(1 / fps, substeps=substeps)``)."""
+        ``substeps`` equal pieces (``Simulator.step(1 / fps, substeps=substeps)``), its states from the pool."""
         self.controls.apply(self.sim, frame - 1)
-        self.sim.step(1.0 / self.fps, substeps=self.substeps)
+        with self.pool:
+            self.sim.step(1.0 / self.fps, substeps=self.substeps)
 
     def forward(self, traj: Trajectory) -> None:
-        """Run every frame from the simulator's state, storing it (and recording it into ``traj``) at each."""
+        """Run every frame from the simulator's state, storing it into ``traj`` (and ``rest``) at each."""
+        self._start = self.sim.dynamics.fresh_state()
         self._store(0, traj)
         for frame in range(1, self.frames + 1):
+            if self.sim.state is not self._start:   # a pooled state of the frame before: the pool reuses it
+                wp.copy(self._start.y, self.sim.state.y)
+                self.sim.state = self._start
             self._step(frame)
             self._store(frame, traj)
 
-    def restore(self, frame: int) -> State:
+    def restore(self, frame: int, traj: Trajectory) -> State:
         """A new State (with a gradient) holding stored frame ``frame``; the simulator starts from it, at its time."""
-        state = self.sim.dynamics.new_state()
-        wp.copy(state.y, self.states[frame])
+        state = self.sim.dynamics.fresh_state()
+        traj.restore(frame, state)
+        for name, rows in self.rest.items():
+            wp.copy(getattr(state, name), rows[frame])
         self.sim.state, self.sim.time = state, self.times[frame]
         return state
 
@@ -68,7 +93,7 @@ class Checkpoints:
         frame's backward, before its tape is dropped (for inspection)."""
         carry = None   # d loss / d (state at the frame's end), from the frames after it
         for frame in range(self.frames, 0, -1):
-            start = self.restore(frame - 1)
+            start = self.restore(frame - 1, traj)
             with wp.Tape() as tape:
                 watched = traj.watch(start, 0) if frame == 1 else []
                 self._step(frame)

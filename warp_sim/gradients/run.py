@@ -31,13 +31,15 @@ def gradient(scene: Scene, loss, wrt=(), *, seconds: float, fps: float = 60.0, s
     """The loss of a run of ``scene`` from its initial state, and its gradient with respect to ``wrt``.
 
     The run is frames = round(seconds * fps) frames of 1 / fps seconds, each ``substeps`` steps of ``integrator``
-    (default "rk4"; one of euler, midpoint, rk4, symplectic_euler, verlet) on a ``Simulator(scene, integrator,
-    device, differentiable=True, **options)`` (options such as ``collisions=False``).
+    (default "rk4"; one of euler, midpoint, rk4, symplectic_euler, verlet, implicit_euler, or an instance) on a
+    ``Simulator(scene, integrator, device, differentiable=True, **options)`` (options such as
+    ``collisions=False``). Particles' impacts on planes are differentiated at their time of impact.
 
     loss(traj) gets a gradients.Trajectory (``traj.particle_x``, ``particle_v``, ``body_x``, ``body_q``: Warp arrays
     of shape (frames + 1, count), row k the state at t = k / fps, row 0 the initial state) and returns a float
     ``wp.array`` of shape (1,) with ``requires_grad=True`` computed from them by Warp kernels (it is called once
-    first, on the initial state, to check that).
+    first, on the initial state, to check that; the fields its launches read on that call's tape, whole or by any
+    view, get gradients, the others none: a loss must read the same fields whatever the values).
     wrt: names of gradients.parameters.WRT: particle_x, particle_v, body_x, body_v, body_w (the initial state:
         positions, velocities, world-frame angular velocities), particle_mass, body_mass, spring_stiffness,
         spring_damping, spring_rest_length (scene.spring_array order), gravity (3,), and the per-frame controls
@@ -47,8 +49,9 @@ def gradient(scene: Scene, loss, wrt=(), *, seconds: float, fps: float = 60.0, s
 
     Returns (value, grads): the loss (a float) and a dict of float64 numpy arrays keyed by the names of ``wrt``;
     with an empty ``wrt`` the value alone. Memory follows frames, not substeps (gradients.checkpoints). A part of
-    the scene without an adjoint yet (contacts, joints, emitters, ...) is a ValueError naming it, before anything
-    runs; so are unknown names, controls of the wrong shape and a loss that returns anything else.
+    the scene without an adjoint yet (contacts with bodies, joints, emitters, ...: warp_sim.adjoints) is a
+    ValueError naming it, before anything runs; so are unknown names, controls of the wrong shape and a loss that
+    returns anything else.
     """
     if not isinstance(scene, Scene):
         raise checks.fail("scene", scene, "expected a warp_sim.Scene")
@@ -71,7 +74,12 @@ def gradient(scene: Scene, loss, wrt=(), *, seconds: float, fps: float = 60.0, s
     traj = Trajectory(sim.model, frames, fps)
     for frame in range(frames + 1):
         traj.store(frame, sim.state)
-    _loss_value(loss, traj)
+    if names:
+        traj.probe()   # a trial call of the loss on a tape: the fields it reads get gradients, the others none
+    with wp.Tape() as trial:
+        _loss_value(loss, traj)
+    traj.track(traj.read_by(trial) if names else ())
+    del trial
     run = Checkpoints(sim, frames, fps, substeps, held)
     run.forward(traj)
     if not names:

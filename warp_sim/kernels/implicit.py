@@ -25,6 +25,10 @@ guess are 0, so conjugate gradient leaves their dv at exactly 0 (and the update 
 Every kernel is generic over the precision: pass float arrays and scalars of one type
 (``wp.float32`` with vec3f and mat33f, or ``wp.float64`` with vec3d and mat33d).
 
+In a differentiable run the solve's adjoint (``system_adjoint``, after the same CG on A lam = dv_bar: A is
+symmetric) hands b_bar and A_bar to the adjoints of the assembly kernels, which take them to the state, the
+masses and the springs' parameters.
+
 Private: every kernel here is for the simulator's own use (the implicit Euler solver);
 their arguments may change between releases. ``__all__`` is empty.
 """
@@ -200,4 +204,24 @@ def velocity_update(
         v1[i] = v0[i]
 
 
-register(globals(), y="vec3", z="vec3")
+@wp.kernel
+def system_adjoint(
+    lam: wp.array(dtype=Any),
+    dv: wp.array(dtype=Any),
+    rows: wp.array(dtype=int),
+    cols: wp.array(dtype=int),
+    particle_count: int,
+    rhs_grad: wp.array(dtype=Any),
+    triplets_grad: wp.array(dtype=Any),
+):
+    """The adjoint of the solve A dv = b, given lam = A^-T dv_bar (A symmetric: the same CG): b_bar = lam and
+    A_bar = -lam dv^T, that is per triplet t at block (rows[t], cols[t]) the 3x3 -lam[row] dv[col]^T [1/kg ...]
+    added into triplets_grad[t], and lam[i] added into rhs_grad[i] for each particle i (the triplets' first
+    ``particle_count`` are the diagonal's, rows[i] = i). Launch with dim = the number of triplets."""
+    t = wp.tid()
+    triplets_grad[t] = triplets_grad[t] - wp.outer(lam[rows[t]], dv[cols[t]])
+    if t < particle_count:
+        rhs_grad[t] = rhs_grad[t] + lam[t]
+
+
+register(globals(), y="vec3", z="vec3", lam="vec3", rhs_grad="vec3", triplets_grad="mat33")

@@ -19,7 +19,11 @@ class PlaneImpacts(Pass):
     """The time-of-impact response pass, run after the solver on (start, end) of a step.
 
     touched: per-particle int32 flags set to 1 on contact (empty unless a kill-on-contact emitter asks)
+    hold_impact_time: in a differentiable run, drop the impact times' gradients (the naive adjoint, which holds
+    each impact's time fixed; for comparison only: False, the exact adjoint, by default)
     """
+
+    hold_impact_time = False
 
     kernels = ("planes",)
     capturable = True
@@ -34,6 +38,11 @@ class PlaneImpacts(Pass):
     def apply(self, start: State, end: State, t: float, h: float) -> None:
         """Correct ``end`` in place for every plane crossed between ``start`` and ``end`` (h seconds)."""
         m = self.model
+        if m.differentiable:   # one particle a thread, its adjoint exact; end corrected in place on the tape
+            m.launcher.launch_in_place(plane_kernels.resolve_plane_impacts_differentiable, m.particle_count, [
+                start.particle_x, start.particle_v, end.particle_x, end.particle_v, m.particle_material, m.planes,
+                m.scalar(h), int(self.hold_impact_time), self.touched], [end.particle_x, end.particle_v])
+            return
         m.launcher.prepare(plane_kernels.resolve_plane_impacts_chunked, self.threads, [
             start.particle_x, start.particle_v, end.particle_x, end.particle_v, m.particle_material, m.planes,
             m.scalar(h), self.touched, 0, self.chunk]).run_pieces(self.threads, self.BASE, self.pieces)

@@ -54,6 +54,7 @@ try:   # a private class of Warp's CG, replaced on the CPU when it has the expec
 except ImportError:   # another Warp version: CG keeps its own dot products
     TiledDot = None
 
+from ..core.tape import paused
 from ..kernels import implicit as implicit_kernels
 from ..util import checks
 from .partitioned import Partitioned, SymplecticEuler
@@ -93,6 +94,7 @@ class ImplicitEuler(Partitioned):
 
     name, order = "implicit_euler", 1
     position_response = 1.0
+    differentiable = True
     kernels = ("integrate", "implicit")
     capturable = False   # the conjugate-gradient solve stops on a residual read back
     persistent = ("dv", "last_iterations", "last_residual", "last_tolerance", "last_converged",
@@ -195,9 +197,12 @@ class ImplicitEuler(Partitioned):
         self.triplets = wp.zeros(len(rows), dtype=self.mat33, device=device)
         self.diagonal_triplets = self.triplets[:n]          # views kept, so recorded launches stay valid
         self.A = wp_sparse.bsr_zeros(n, n, self.mat33, device=device)
+        #: each triplet's block row and column (the adjoint of the solve reads them)
+        self.triplet_rows = wp.array(rows, dtype=int, device=device)
+        self.triplet_cols = wp.array(cols, dtype=int, device=device)
         self.mapping = wp_sparse.bsr_set_from_triplets(
-            self.A, wp.array(rows, dtype=int, device=device), wp.array(cols, dtype=int, device=device),
-            self.triplets, prune_numerical_zeros=False, build_mapping=True)
+            self.A, self.triplet_rows, self.triplet_cols, self.triplets, prune_numerical_zeros=False,
+            build_mapping=True)
         self.A.nnz_sync()   # tightens the block count the value gathers launch over
         self.rhs = wp.zeros(n, dtype=self.vec3, device=device)
         self.dv = wp.zeros(n, dtype=self.vec3, device=device)
@@ -237,27 +242,55 @@ class ImplicitEuler(Partitioned):
     def step(self, state_in, state_out, t, h):
         # forces and rates of every component at the start; an explicit kick of the whole
         # velocity block (the bodies' symplectic Euler kick), whose particle part is then replaced
-        self.kick(state_in, state_in, state_out, t, h)
+        rates = self.kick(state_in, state_in, state_out, t, h)
         if self.model.particle_count:
-            self._solve_particles(state_in, state_out, h)
+            self._solve_particles(state_in, state_out, h, rates)
         self.drift(state_in, state_out, h)   # x1 = x0 + h v1 for particles; bodies as symplectic Euler
 
-    def _solve_particles(self, state_in, state_out, h: float) -> None:
+    def _solve_particles(self, state_in, state_out, h: float, rates) -> None:
+        """The particles' system assembled at ``state_in`` (accelerations from ``rates``), solved for dv, and
+        v1 = v0 + dv into ``state_out``. In a differentiable run the assembly and the update are taped, each step
+        with triplets, right-hand side and dv of its own; the solve runs off the tape, which records its adjoint
+        instead (``_solve_adjoint``)."""
         m, scalar = self.model, self.scalar
         n = m.particle_count
+        if m.differentiable:
+            triplets, rhs, dv = (wp.zeros_like(a, requires_grad=True) for a in (self.triplets, self.rhs, self.dv))
+        else:
+            triplets, rhs, dv = self.triplets, self.rhs, self.dv
         self.launch(implicit_kernels.particle_system, n,
-                    [self.k.particle_v, m.particle_inv_mass, scalar(h), scalar(h * m.drag_value),
-                     int(self.warm_start), self.diagonal_triplets, self.rhs, self.dv])
+                    [rates.particle_v, m.particle_inv_mass, scalar(h), scalar(h * m.drag_value),
+                     int(self.warm_start), self.diagonal_triplets if triplets is self.triplets else triplets[:n],
+                     rhs, dv])
         if m.spring_count:
             self.launch(implicit_kernels.spring_system, m.spring_count,
                         [state_in.particle_x, state_in.particle_v, m.springs, m.particle_inv_mass, scalar(h), n,
-                         self.triplets, self.rhs])
-        wp_sparse.bsr_set_from_mapped_values(self.A, self.mapping, self.triplets, reduction="gather")
+                         triplets, rhs])
+        if dv is self.dv:
+            self._count_solve(*self._solve(triplets))
+        else:
+            with paused() as tape:
+                wp.copy(self.rhs, rhs)
+                wp.copy(self.dv, dv)
+                self._count_solve(*self._solve(triplets))
+                wp.copy(dv, self.dv)
+            if tape is not None:
+                tape.record_func(lambda: self._solve_adjoint(triplets, rhs, dv), [triplets, rhs, dv])
+        self.launch(implicit_kernels.velocity_update, n,
+                    [state_in.particle_v, dv, m.particle_inv_mass, state_out.particle_v])
+
+    def _solve(self, triplets) -> tuple:
+        """A from ``triplets``, its preconditioner, and CG on A self.dv = self.rhs from self.dv: returns CG's
+        (iterations, residual, absolute tolerance)."""
+        m = self.model
+        wp_sparse.bsr_set_from_mapped_values(self.A, self.mapping, triplets, reduction="gather")
         if self.preconditioner != "none":
             wp_sparse.bsr_get_diag(self.A, out=self.diagonal_blocks)
-            self.launch(implicit_kernels.invert_blocks, n,
+            self.launch(implicit_kernels.invert_blocks, m.particle_count,
                         [self.diagonal_blocks, int(self.preconditioner == "diag"), self.inverse_blocks])
-        iterations, residual, atol = self.solver()
+        return self.solver()
+
+    def _count_solve(self, iterations, residual, atol) -> None:
         self.last_iterations = int(iterations)
         self.last_residual = float(residual)
         self.last_tolerance = float(atol)
@@ -268,8 +301,19 @@ class ImplicitEuler(Partitioned):
         if not self.last_converged:
             self.unconverged_solves += 1
             self._worst_unreported = max(self._worst_unreported, relative)
-        self.launch(implicit_kernels.velocity_update, n,
-                    [state_in.particle_v, self.dv, m.particle_inv_mass, state_out.particle_v])
+
+    def _solve_adjoint(self, triplets, rhs, dv) -> None:
+        """The adjoint of a step's solve A dv = b (a function on the tape, in its backward pass): lam = A^-1 dv_bar
+        by the same CG (A is symmetric positive definite, so A^-T = A^-1; to the same tolerance, not counted in
+        the stats), then b_bar += lam and, per triplet, A_bar = -lam dv^T (kernels.implicit.system_adjoint), which
+        the assembly kernels' adjoints take on; dv_bar is used up (CG's result does not depend on its guess)."""
+        wp.copy(self.rhs, dv.grad)
+        self.dv.zero_()
+        self._solve(triplets)
+        wp.launch(implicit_kernels.system_adjoint, triplets.shape[0],
+                  [self.dv, dv, self.triplet_rows, self.triplet_cols, self.model.particle_count, rhs.grad,
+                   triplets.grad], device=self.model.device, record_tape=False)
+        dv.grad.zero_()
 
 
 CPU_DOT_TILE = 8

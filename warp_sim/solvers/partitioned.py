@@ -20,11 +20,13 @@ class Partitioned(Integrator):
         self.k = dynamics.new_state()
         self.mid = dynamics.new_state() if dynamics.position_rates_need_positions else None
 
-    def kick(self, forces_at: State, velocities: State, out: State, t: float, h: float) -> None:
-        """out.velocity = velocities.velocity + h * (velocity rates at ``forces_at``)."""
+    def kick(self, forces_at: State, velocities: State, out: State, t: float, h: float) -> State:
+        """out.velocity = velocities.velocity + h * (velocity rates at ``forces_at``); returns the state holding
+        those rates."""
         k = self.scratch(self.k)
         self.dynamics.velocity_derivative(forces_at, t, k)
         self.axpy(velocities.velocity, h, k.velocity, out.velocity)
+        return k
 
     def drift(self, state_in: State, state_out: State, h: float) -> None:
         """out.position = in.position + h * (position rates from in's positions and out's velocities).
