@@ -56,8 +56,8 @@ def test_pendulum_period_swing_and_gap_through_run():
 @pytest.mark.parametrize("integrator", ["rk4", "symplectic_euler", "verlet", "euler", "midpoint", "implicit_euler",
                                         "rk45"])
 def test_pendulum_through_step_every_integrator(integrator):
-    """sim.step(1/60) under every solver, the adaptive rk45 included: each holds the period and the swing (jointed bodies drift as
-    symplectic Euler does: finish_response)."""
+    """sim.step(1/60) under every solver, the adaptive rk45 included: each holds the period and the swing
+    (jointed bodies drift as symplectic Euler does: finish_response)."""
     theta0 = math.radians(10.0)
     sim = ws.Simulator(pendulum(theta0), integrator=integrator)
     x = [sim.state.body_x.numpy()[0].copy()]
