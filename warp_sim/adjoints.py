@@ -15,13 +15,15 @@ from .core.components import Particles, RigidBodies
 from .solvers import RK45
 
 #: the components, force terms and passes with adjoints (a solver says so itself: ``Integrator.differentiable``)
-DIFFERENTIABLE = (Particles, RigidBodies, forces.Springs, passes.ComponentProjection, passes.PlaneImpacts)
+DIFFERENTIABLE = (Particles, RigidBodies, forces.Springs, passes.ComponentProjection, passes.PlaneImpacts,
+                  passes.body_contacts.CoveredBodyContacts)
 
 FIXED_STEP = "use one of euler, midpoint, rk4, symplectic_euler, verlet, implicit_euler"
 #: each part without an adjoint: what it is, and why
 REFUSED = {
-    passes.BodyContacts: ("body contacts", "their impulses at the time of impact are not differentiated "
-                          "(pass collisions=False to leave them out)"),
+    passes.BodyContacts: ("body contacts", "only frictionless ones have one, between spheres and of any body on "
+                          "planes or static spheres, without joints (set friction=0 on every body and plane, or pass "
+                          "collisions=False to leave them out)"),
     passes.ParticleShapeContacts: ("particle contacts with bodies and colliders",
                                    "their time-of-impact response is not differentiated (pass collisions=False)"),
     forces.PlanePenalty: ("penalty contacts of particles on planes",

@@ -2,7 +2,8 @@
 position projection (penalty forces are in ``penalty``, particles pushed by shapes in ``particle_shapes``).
 
 The response works in the state's precision on the solver's end-of-step state, from the
-contacts ``detection`` found at the start of the step (see there for their layout).
+contacts ``detection`` found at the start of the step (see there for their layout). One contact's
+updates are functions on values in ``impulses``, which the taped response (``contact_adjoint``) shares.
 
 Private: every kernel and function here is for the simulator's own use (the body contact passes);
 their arguments may change between releases. ``__all__`` is empty.
@@ -12,6 +13,20 @@ from typing import Any
 import warp as wp
 
 from .detection import ContactBuffer, Geoms, beyond, is_body
+from .impulses import (
+    impulse_update,
+    lever,
+    pair_response,
+    pair_values,
+    pair_velocity,
+    point_velocity,
+    push_apart,
+    push_pair,
+    response_mass,  # noqa: F401 (kernels.joints takes it from here)
+    row_update,
+    store_pair,
+    turn,
+)
 from .manifolds import ManifoldSet, manifold_rows, touch, untouched
 from .planes import first_contact_time
 from .precisions import register
@@ -24,11 +39,6 @@ __all__ = []
 
 # response ------------------------------------------------------------------------
 @wp.func
-def point_velocity(v: Any, w: Any, r: Any):
-    return v + wp.cross(w, r)
-
-
-@wp.func
 def state_point_velocity(q: Any, P: Any, L: Any, inv_mass: Any, inv_inertia: Any, r: Any):
     """Velocity [m/s] of the body point at world offset r [m] from the centre of mass."""
     return point_velocity(P * inv_mass, angular_velocity(q, inv_inertia, L), r)
@@ -38,18 +48,6 @@ def state_point_velocity(q: Any, P: Any, L: Any, inv_mass: Any, inv_inertia: Any
 def body_point_velocity(bodies: Any, mass: Any, i: int, r: Any):
     """Velocity [m/s] of body i's point at world offset r [m] from its centre of mass (Bodies, BodyMass blocks)."""
     return state_point_velocity(bodies.q[i], bodies.P[i], bodies.L[i], mass.inv_mass[i], mass.inv_inertia[i], r)
-
-
-@wp.func
-def lever(q: Any, anchor: Any, n: Any, rounding: Any):
-    """World offset [m] from a centre of mass to a contact: the anchor turned by q, then ``rounding`` along n."""
-    return wp.quat_rotate(wp.normalize(q), anchor) + n * rounding
-
-
-@wp.func
-def response_mass(inv_mass: Any, inv_inertia_world: Any, r: Any, n: Any):
-    """n . (1/M n + (I^-1 (r x n)) x r): the inverse effective mass of a body point along unit n."""
-    return inv_mass + wp.dot(n, wp.cross(inv_inertia_world * wp.cross(r, n), r))
 
 
 @wp.func
@@ -67,16 +65,81 @@ def pair_material(geoms: Geoms, i: int, j: int):
     return e, mu
 
 
-@wp.kernel
-def prepare_contacts(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), row_ids: wp.array(dtype=wp.vec2i),
-                     geoms: Geoms, start: Any, end: Any, mass: Any, h: Any, bounce_speed: Any, slop: Any, rows: Any,
-                     work: Any, impacts: wp.array(dtype=wp.int32)):
-    """Per contact: anchors in the body frames (rounding1 = -radius1 and rounding2 = radius2 along n from
-    them to the surfaces), the time of impact within the step, materials.
+@wp.func
+def contact_row(i: int, j: int, dynamic: bool, n: Any, p1: Any, p2: Any, round1: Any, round2: Any, start: Any,
+                end: Any, mass: Any, h: Any, slop: Any):
+    """A contact's anchors in the body frames and its time of impact within the step, from its normal n and points
+    p1, p2 [m] at the start of the step (rounding1 = -radius1 and rounding2 = radius2 along n from them to the
+    surfaces).
 
     Over the step the gap follows d(t) = d0 + vn t + an t^2 / 2 with vn the normal relative
     velocity at the start and an the normal relative acceleration the solver produced; the
     earliest root is the time of impact (or the linear crossing of the start and end gaps).
+    Returns (a1, a2 [m]: a2 in the world for a static side, t [s]: -1 where it closes in no time of the step,
+    vn [m/s], an [m/s^2], closing [m/s]: the approach a speculative contact may keep, gap / h, else 0)."""
+    zero = type(h)(0.0)
+    a1 = wp.quat_rotate_inv(wp.normalize(start.q[i]), p1 - start.x[i])
+    a2 = p2
+    vn_start = wp.dot(n, body_point_velocity(start, mass, i, lever(start.q[i], a1, n, round1)))
+    end2 = p2 + n * round2
+    if dynamic:
+        a2 = wp.quat_rotate_inv(wp.normalize(start.q[j]), p2 - start.x[j])
+        vn_start -= wp.dot(n, body_point_velocity(start, mass, j, lever(start.q[j], a2, n, round2)))
+        end2 = end.x[j] + lever(end.q[j], a2, n, round2)
+    gap_end = wp.dot(n, end.x[i] + lever(end.q[i], a1, n, round1) - end2)
+    gap = wp.dot(n, p1 - p2) + round1 - round2
+    # the normal acceleration from forces: the change of the centres' velocities (rotation alone is kinematic)
+    dv = (end.P[i] - start.P[i]) * mass.inv_mass[i]
+    if dynamic:
+        dv -= (end.P[j] - start.P[j]) * mass.inv_mass[j]
+    an = wp.dot(n, dv) / h
+    t = first_contact_time(gap, vn_start, type(h)(0.5) * an, h)
+    if t < zero and gap_end < zero:
+        t = zero
+        if gap > zero:
+            t = h * wp.clamp(gap / (gap - gap_end), zero, type(h)(1.0))
+    if t < zero and gap <= slop:   # touching: impacts passed on by neighbours happen now
+        t = zero
+    # resting contact: no approach at the end of the step where it closes or touches; elsewhere (speculative)
+    # the approach may close the gap but not more
+    closing = zero
+    if t < zero and gap > slop:
+        closing = gap / h
+    return a1, a2, t, vn_start, an, closing
+
+
+@wp.func
+def write_row(rows: Any, r: int, a1: Any, a2: Any, round1: Any, round2: Any, n: Any, t: Any, closing: Any, an: Any,
+              h: Any, e: Any, mu: Any):
+    """Row r of the ContactRows from contact_row()'s values and the materials e, mu; no impulses yet."""
+    zero = type(h)(0.0)
+    rows.anchor1[r] = a1
+    rows.anchor2[r] = a2
+    rows.rounding1[r] = round1
+    rows.rounding2[r] = round2
+    rows.normal[r] = n
+    rows.impact_time[r] = t
+    rows.min_normal_speed[r] = -closing
+    rows.after_impact[r] = an * (h - t)
+    rows.restitution[r] = e
+    rows.friction[r] = mu
+    rows.impulse_n[r] = zero
+    rows.impulse_t[r] = n * zero
+
+
+@wp.func
+def bouncing(t: Any, vn_start: Any, an: Any, bounce_speed: Any):
+    """Whether a contact of contact_row()'s t, vn and an counts toward its bodies' time of impact (work.impact):
+    it closes within the step, faster than bounce_speed [m/s] by the start velocities and the forces."""
+    return t >= type(t)(0.0) and vn_start + an * t < -bounce_speed
+
+
+@wp.kernel
+def prepare_contacts(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), row_ids: wp.array(dtype=wp.vec2i),
+                     geoms: Geoms, start: Any, end: Any, mass: Any, h: Any, bounce_speed: Any, slop: Any, rows: Any,
+                     work: Any, impacts: wp.array(dtype=wp.int32)):
+    """Per contact: anchors in the body frames, the time of impact within the step (contact_row), materials.
+
     after_impact: the normal velocity the forces add after the impact, a_n (h - t) [m/s].
     start, end: the bodies at the start and end of the step (Bodies); mass: BodyMass; rows: the contacts'
     ContactRows, written at row slot[c] (sorted by pair), and row_ids, the row's bodies; work.impact: per
@@ -87,66 +150,25 @@ def prepare_contacts(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), ro
     c = wp.tid()
     if beyond(contacts.count, c, contacts.ids.shape[0]):
         return
-    i = contacts.ids[c][0]
-    j = contacts.ids[c][1]
-    zero = type(h)(0.0)
-    half = type(h)(0.5)
+    pair = contacts.ids[c]
+    i = pair[0]
+    j = pair[1]
     n = type(start.P[0])(contacts.normal[c])
-    p1 = type(n)(contacts.point1[c])
-    p2 = type(n)(contacts.point2[c])
-    dynamic = is_body(j, geoms.body_count)
     round1 = -type(h)(contacts.radius1[c])
     round2 = type(h)(contacts.radius2[c])
-    a1 = wp.quat_rotate_inv(wp.normalize(start.q[i]), p1 - start.x[i])
-    a2 = p2
-    vn_start = wp.dot(n, body_point_velocity(start, mass, i, lever(start.q[i], a1, n, round1)))
-    end2 = p2 + n * round2
-    if dynamic:
-        a2 = wp.quat_rotate_inv(wp.normalize(start.q[j]), p2 - start.x[j])
-        vn_start -= wp.dot(n, body_point_velocity(start, mass, j, lever(start.q[j], a2, n, round2)))
-        end2 = end.x[j] + lever(end.q[j], a2, n, round2)
-    gap_end = wp.dot(n, end.x[i] + lever(end.q[i], a1, n, round1) - end2)
-    e32, mu32 = pair_material(geoms, i, j)
-    e = type(h)(e32)
-    mu = type(h)(mu32)
-    gap = wp.dot(n, p1 - p2) + round1 - round2
-    # the normal acceleration from forces: the change of the centres' velocities (rotation alone is kinematic)
-    dv = (end.P[i] - start.P[i]) * mass.inv_mass[i]
-    if dynamic:
-        dv -= (end.P[j] - start.P[j]) * mass.inv_mass[j]
-    an = wp.dot(n, dv) / h
-    t = first_contact_time(gap, vn_start, half * an, h)
-    if t < zero and gap_end < zero:
-        t = zero
-        if gap > zero:
-            t = h * wp.clamp(gap / (gap - gap_end), zero, type(h)(1.0))
-    if t < zero and gap <= slop:   # touching: impacts passed on by neighbours happen now
-        t = zero
+    dynamic = is_body(j, geoms.body_count)
+    a1, a2, t, vn_start, an, closing = contact_row(i, j, dynamic, n, type(n)(contacts.point1[c]),
+                                                   type(n)(contacts.point2[c]), round1, round2, start, end, mass, h,
+                                                   slop)
+    e, mu = pair_material(geoms, i, j)
     r = slot[c]
-    row_ids[r] = contacts.ids[c]
-    rows.anchor1[r] = a1
-    rows.anchor2[r] = a2
-    rows.rounding1[r] = round1
-    rows.rounding2[r] = round2
-    rows.normal[r] = n
-    rows.impact_time[r] = t
-    # resting contact: no approach at the end of the step where it closes or touches; elsewhere (speculative)
-    # the approach may close the gap but not more
-    closing = zero
-    if t < zero and gap > slop:
-        closing = gap / h
-    rows.min_normal_speed[r] = -closing
-    rows.after_impact[r] = an * (h - t)
-    rows.restitution[r] = e
-    rows.friction[r] = mu
-    rows.impulse_n[r] = zero
-    rows.impulse_t[r] = type(n)()
-    if t >= zero:   # would the first collision sweep find this contact colliding?
-        pair = contacts.ids[c]
+    row_ids[r] = pair
+    write_row(rows, r, a1, a2, round1, round2, n, t, closing, an, h, type(h)(e), type(h)(mu))
+    if t >= type(h)(0.0):   # would the first collision sweep find this contact colliding?
         r1, r2 = impact_levers(pair, geoms.body_count, start, end, t / h, a1, a2, n, round1, round2)
         if wp.dot(relative_velocity(pair, geoms.body_count, work, r1, r2), n) - an * (h - t) < -bounce_speed:
             wp.atomic_add(impacts, 0, 1)
-    if t >= zero and vn_start + an * t < -bounce_speed:
+    if bouncing(t, vn_start, an, bounce_speed):
         wp.atomic_min(work.impact, i, t / h)
         if dynamic:
             wp.atomic_min(work.impact, j, t / h)
@@ -167,32 +189,24 @@ def load_velocities(bodies: Any, mass: Any, work: Any):
 
 @wp.func
 def relative_velocity(ids: wp.vec2i, body_count: int, work: Any, r1: Any, r2: Any):
-    i = ids[0]
-    j = ids[1]
-    rel = point_velocity(work.v[i], work.w[i], r1)
-    if is_body(j, body_count):
-        rel -= point_velocity(work.v[j], work.w[j], r2)
-    return rel
+    """pair_velocity() of the pair's working velocities (BodyVelocities) at levers r1, r2 [m]."""
+    v1, w1, v2, w2 = pair_values(work.v, work.w, ids, body_count)
+    return pair_velocity(v1, w1, v2, w2, r1, r2, is_body(ids[1], body_count))
 
 
 @wp.func
 def apply_pair_impulse(ids: wp.vec2i, body_count: int, work: Any, mass: Any, r1: Any, r2: Any, J: Any):
     """Impulse J [N s] on the first body at r1, -J on the second at r2."""
-    i = ids[0]
-    j = ids[1]
-    work.v[i] = work.v[i] + J * mass.inv_mass[i]
-    work.w[i] = work.w[i] + work.inv_inertia_world[i] * wp.cross(r1, J)
-    if is_body(j, body_count):
-        work.v[j] = work.v[j] - J * mass.inv_mass[j]
-        work.w[j] = work.w[j] - work.inv_inertia_world[j] * wp.cross(r2, J)
+    v1, w1, v2, w2 = pair_values(work.v, work.w, ids, body_count)
+    m1, I1, m2, I2 = pair_values(mass.inv_mass, work.inv_inertia_world, ids, body_count)
+    v1, w1, v2, w2 = push_pair(v1, w1, v2, w2, m1, I1, m2, I2, is_body(ids[1], body_count), r1, r2, J)
+    store_pair(work.v, work.w, ids, body_count, v1, w1, v2, w2)
 
 
 @wp.func
 def pair_mass(ids: wp.vec2i, body_count: int, work: Any, mass: Any, r1: Any, r2: Any, n: Any):
-    k = response_mass(mass.inv_mass[ids[0]], work.inv_inertia_world[ids[0]], r1, n)
-    if is_body(ids[1], body_count):
-        k += response_mass(mass.inv_mass[ids[1]], work.inv_inertia_world[ids[1]], r2, n)
-    return k
+    m1, I1, m2, I2 = pair_values(mass.inv_mass, work.inv_inertia_world, ids, body_count)
+    return pair_response(m1, I1, m2, I2, is_body(ids[1], body_count), r1, r2, n)
 
 
 @wp.func
@@ -210,18 +224,6 @@ def contact_levers(pair: wp.vec2i, body_count: int, q: wp.array(dtype=Any), rows
     """levers() of contact c of the ContactRows at the orientations q."""
     return levers(pair, body_count, q, rows.anchor1[c], rows.anchor2[c], rows.normal[c], rows.rounding1[c],
                   rows.rounding2[c])
-
-
-@wp.func
-def friction_impulse(ids: wp.vec2i, body_count: int, work: Any, mass: Any, r1: Any, r2: Any, n: Any, rel: Any):
-    """The impulse that would stop the tangential sliding rel - (rel . n) n, and its length."""
-    slide = rel - n * wp.dot(rel, n)
-    speed = wp.length(slide)
-    J = slide * type(speed)(0.0)
-    if speed > type(speed)(1.0e-12):
-        direction = slide / speed
-        J = direction * (-speed / pair_mass(ids, body_count, work, mass, r1, r2, direction))
-    return J
 
 
 @wp.func
@@ -252,24 +254,35 @@ def contact_impact_levers(pair: wp.vec2i, body_count: int, start: Any, end: Any,
 @wp.func
 def accumulate(pair: wp.vec2i, body_count: int, work: Any, mass: Any, r1: Any, r2: Any, n: Any, target: Any,
                mu: Any, old_n: Any, old_t: Any):
-    """One sequential-impulse update of a contact: the accumulated normal impulse [N s] moves toward the one
-    that leaves normal velocity ``target`` [m/s], kept >= 0; then the accumulated friction impulse toward
-    the one that stops sliding, kept in the Coulomb disc |Jt| <= mu Jn. Returns (Jn, Jt)."""
-    zero = old_n * type(old_n)(0.0)
-    rel = relative_velocity(pair, body_count, work, r1, r2)
-    k = pair_mass(pair, body_count, work, mass, r1, r2, n)
-    total = wp.max(old_n + (target - wp.dot(rel, n)) / k, zero)
-    Jt = old_t
-    if total > zero or old_n > zero:
-        apply_pair_impulse(pair, body_count, work, mass, r1, r2, n * (total - old_n))
-        rel = relative_velocity(pair, body_count, work, r1, r2)
-        Jt = old_t + friction_impulse(pair, body_count, work, mass, r1, r2, n, rel)
-        limit = mu * total
-        length = wp.length(Jt)
-        if length > limit:
-            Jt = Jt * (limit / length)
-        apply_pair_impulse(pair, body_count, work, mass, r1, r2, Jt - old_t)
+    """impulse_update() of a contact on the working velocities, in place. Returns (Jn, Jt)."""
+    v1, w1, v2, w2 = pair_values(work.v, work.w, pair, body_count)
+    m1, I1, m2, I2 = pair_values(mass.inv_mass, work.inv_inertia_world, pair, body_count)
+    v1, w1, v2, w2, total, Jt = impulse_update(v1, w1, v2, w2, m1, I1, m2, I2, is_body(pair[1], body_count), r1, r2,
+                                               n, target, mu, old_n, old_t)
+    store_pair(work.v, work.w, pair, body_count, v1, w1, v2, w2)
     return total, Jt
+
+
+@wp.func
+def impact_target(pair: wp.vec2i, body_count: int, start: Any, end: Any, h: Any, rows: Any, work: Any, k: int,
+                  bounce_speed: Any):
+    """The normal velocity [m/s] contact k must leave with where it collides (it approaches faster than
+    bounce_speed at its time of impact, by the working velocities): -e times its approach, plus what the forces
+    add after the impact; elsewhere -1e30 (colliding() is false)."""
+    target = type(bounce_speed)(-1.0e30)
+    if rows.impact_time[k] >= type(h)(0.0):
+        n = rows.normal[k]
+        r1, r2 = contact_impact_levers(pair, body_count, start, end, h, rows, k)
+        approach = wp.dot(relative_velocity(pair, body_count, work, r1, r2), n) - rows.after_impact[k]
+        if approach < -bounce_speed:
+            target = rows.after_impact[k] - rows.restitution[k] * approach
+    return target
+
+
+@wp.func
+def colliding(target: Any):
+    """Whether an impact_target() is one (a contact that collides)."""
+    return target > type(target)(-1.0e29)
 
 
 @wp.kernel
@@ -297,21 +310,15 @@ def collide_manifolds(manifolds: ManifoldSet, colour: int, iterations: int, swee
     zero = type(bounce_speed)(0.0)
     impacts = int(0)
     for k in range(c, last):
-        pair = manifolds.row_ids[k]
-        rows.target[k] = type(bounce_speed)(-1.0e30)
+        rows.target[k] = impact_target(manifolds.row_ids[k], body_count, start, end, h, rows, work, k, bounce_speed)
         rows.collision_n[k] = zero
         rows.collision_t[k] = rows.normal[k] * zero
-        if rows.impact_time[k] >= zero:
-            n = rows.normal[k]
-            r1, r2 = contact_impact_levers(pair, body_count, start, end, h, rows, k)
-            approach = wp.dot(relative_velocity(pair, body_count, work, r1, r2), n) - rows.after_impact[k]
-            if approach < -bounce_speed:
-                rows.target[k] = rows.after_impact[k] - rows.restitution[k] * approach
-                impacts += 1
+        if colliding(rows.target[k]):
+            impacts += 1
     if impacts > 0:
         for _iteration in range(iterations):
             for k in range(c, last):
-                if rows.target[k] > type(bounce_speed)(-1.0e29):
+                if colliding(rows.target[k]):
                     pair = manifolds.row_ids[k]
                     n = rows.normal[k]
                     r1, r2 = contact_impact_levers(pair, body_count, start, end, h, rows, k)
@@ -368,34 +375,15 @@ def warm_start_manifolds(manifolds: ManifoldSet, colour: int, rows: Any, mass: A
 
 @wp.func
 def solve_row(pair: wp.vec2i, body_count: int, rows: Any, mass: Any, work: Any, k: int):
-    """One sequential-impulse update of row k with its fixed levers and masses: the accumulated normal impulse
-    [N s] toward the one that leaves normal velocity min_normal_speed, kept >= 0; then the accumulated
-    friction impulse toward the one that stops sliding along both tangents, kept in the Coulomb disc
-    |Jt| <= mu Jn. Returns the largest velocity change [m/s] the update made at the contact (normal or
-    tangential)."""
-    r1 = rows.lever1[k]
-    r2 = rows.lever2[k]
-    n = rows.normal[k]
-    old_n = rows.impulse_n[k]
-    zero = old_n * type(old_n)(0.0)
-    rel = relative_velocity(pair, body_count, work, r1, r2)
-    total = wp.max(old_n + (rows.min_normal_speed[k] - wp.dot(rel, n)) * rows.mass_n[k], zero)
-    change = wp.abs(total - old_n) / rows.mass_n[k]
-    if total > zero or old_n > zero:
-        apply_pair_impulse(pair, body_count, work, mass, r1, r2, n * (total - old_n))
-        rel = relative_velocity(pair, body_count, work, r1, r2)
-        t1 = rows.tangent1[k]
-        t2 = rows.tangent2[k]
-        old_t = rows.impulse_t[k]
-        Jt = old_t - t1 * (wp.dot(rel, t1) * rows.mass_t1[k]) - t2 * (wp.dot(rel, t2) * rows.mass_t2[k])
-        limit = rows.friction[k] * total
-        length = wp.length(Jt)
-        if length > limit:
-            Jt = Jt * (limit / length)
-        apply_pair_impulse(pair, body_count, work, mass, r1, r2, Jt - old_t)
-        rows.impulse_t[k] = Jt
-        change = wp.max(change, wp.length(Jt - old_t) / rows.mass_t1[k])
+    """row_update() of row k on the working velocities and the row's accumulated impulses, in place. Returns the
+    largest velocity change [m/s] the update made at the contact (normal or tangential)."""
+    v1, w1, v2, w2 = pair_values(work.v, work.w, pair, body_count)
+    m1, I1, m2, I2 = pair_values(mass.inv_mass, work.inv_inertia_world, pair, body_count)
+    v1, w1, v2, w2, total, Jt, change = row_update(v1, w1, v2, w2, m1, I1, m2, I2, is_body(pair[1], body_count), rows,
+                                                   k, rows.impulse_n[k], rows.impulse_t[k])
+    store_pair(work.v, work.w, pair, body_count, v1, w1, v2, w2)
     rows.impulse_n[k] = total
+    rows.impulse_t[k] = Jt
     return change
 
 
@@ -497,12 +485,6 @@ def recall_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), count: wp.array
         slot = (slot + 1) & mask
 
 
-@wp.func
-def turn(q: Any, angle: Any):
-    """q turned by the small rotation vector angle [rad], renormalised."""
-    half = type(angle[0])(0.5)
-    spin = type(q)(angle[0], angle[1], angle[2], type(angle[0])(0.0))
-    return wp.normalize(q + (spin * q) * half)
 
 
 @wp.kernel
@@ -565,31 +547,14 @@ def project_manifolds(manifolds: ManifoldSet, colour: int, iterations: int, swee
         deepest = zero
         for c in range(c0, last):
             pair = manifolds.row_ids[c]
-            i = pair[0]
-            j = pair[1]
-            n = rows.normal[c]
-            r1, r2 = contact_levers(pair, body_count, end.q, rows, c)
-            p2 = rows.anchor2[c] + n * rows.rounding2[c]
-            if is_body(j, body_count):
-                p2 = end.x[j] + r2
-            depth = -wp.dot(n, end.x[i] + r1 - p2) - slop
+            x1, q1, x2, q2 = pair_values(end.x, end.q, pair, body_count)
+            m1, B1, m2, B2 = pair_values(mass.inv_mass, mass.inv_inertia, pair, body_count)
+            x1, q1, x2, q2, depth = push_apart(x1, q1, x2, q2, m1, B1, m2, B2, is_body(pair[1], body_count), rows, c,
+                                               slop, relax)
             if depth > zero:
                 pushed = 1
                 deepest = wp.max(deepest, depth)
-                R1 = wp.quat_to_matrix(wp.normalize(end.q[i]))
-                inv1 = R1 * mass.inv_inertia[i] * wp.transpose(R1)
-                k = response_mass(mass.inv_mass[i], inv1, r1, n)
-                inv2 = inv1
-                if is_body(j, body_count):
-                    R2 = wp.quat_to_matrix(wp.normalize(end.q[j]))
-                    inv2 = R2 * mass.inv_inertia[j] * wp.transpose(R2)
-                    k += response_mass(mass.inv_mass[j], inv2, r2, n)
-                push = relax * depth / k
-                end.x[i] = end.x[i] + n * (push * mass.inv_mass[i])
-                end.q[i] = turn(end.q[i], inv1 * wp.cross(r1, n) * push)
-                if is_body(j, body_count):
-                    end.x[j] = end.x[j] - n * (push * mass.inv_mass[j])
-                    end.q[j] = turn(end.q[j], -(inv2 * wp.cross(r2, n)) * push)
+                store_pair(end.x, end.q, pair, body_count, x1, q1, x2, q2)
         if deepest == zero:
             break
     if pushed == 1:

@@ -26,6 +26,9 @@ applies to impacts faster than ``bounce_speed`` (default 2 |g| h, the speed grav
 in two steps); slower ones are resting contact, so bodies settle instead of jittering.
 The alternative response, "penalty", is a force term (``warp_sim.forces.penalty``).
 
+In a differentiable run the response runs on the tape instead, launch by launch (``passes.contact_adjoint``),
+for the scenes it covers (``CoveredBodyContacts``).
+
 Buffers of pairs and contacts grow as needed: no contact is dropped.
 """
 from __future__ import annotations
@@ -39,6 +42,7 @@ from ..core.state import State
 from ..detection import ContactManifolds, Detection
 from ..kernels import blocks
 from ..kernels import contacts as contact_kernels
+from .contact_adjoint import TapedResponse, refusal
 
 
 class BodyContacts(Pass):
@@ -59,9 +63,12 @@ class BodyContacts(Pass):
         colours and before the static ones in every resting and position sweep
     max_step: the longest step it takes [s] (Pass.max_step; the Simulator's contact_step, by default 1/120 s:
         the longest at which the default sweeps hold stacks and landing piles; None: no sub-steps)
+    hold_impact_time: in a differentiable run, hold the times of impact (the naive discrete gradient, which misses
+        how a bounce moves with its impact time; for comparison only)
     """
 
-    kernels = ("contacts", "detection", "manifolds", "rigid")
+    hold_impact_time = False
+
     capturable = True   # captured steps launch over the last counts with headroom, gated on the device (replay_held)
     merge_cpu_colours = True   # uncaptured on the CPU, a run of colours is one launch (_sweep); False: one each
 
@@ -78,7 +85,6 @@ class BodyContacts(Pass):
         self.model = model
         self.joints = joints
         if joints is not None:
-            self.kernels = (*self.kernels, "joints")
             self.capturable = False   # its uncaptured steps without contacts run the joints alone
         self.geometry = detection.geometry
         self.detection = detection
@@ -106,6 +112,18 @@ class BodyContacts(Pass):
         self._ensure(self.detection.contacts.capacity)
         self._recorded_sizes = None
         self._places = None   # uncaptured on the CPU: each colour's first place in the manifolds' order (_sweep)
+        self.taped = TapedResponse(self)   # the response of a differentiable run
+
+    @property
+    def kernels(self) -> tuple[str, ...]:
+        """Its kernel modules: the joints' too where it sweeps them, its taped response's in a differentiable run."""
+        return ("contacts", "detection", "manifolds", "rigid", *(("joints",) if self.joints is not None else ()),
+                *(("contact_adjoint",) if self.model.differentiable else ()))
+
+    def bounce(self, h: float) -> float:
+        """The slowest approach [m/s] that bounces in a step of h seconds (``bounce_speed``, by default 2 |g| h)."""
+        return self.bounce_speed if self.bounce_speed is not None else max(2.0 * self.model.gravity_magnitude * h,
+                                                                           1e-6)
 
     def _ensure(self, capacity: int) -> None:
         """Per-contact rows and the warm-start table for at least ``capacity`` contacts (they only grow)."""
@@ -144,6 +162,9 @@ class BodyContacts(Pass):
         gates say that they held everything (``replay_held``); a step whose launches missed something leaves
         ``end`` as the solver wrote it and the warm start as it was, and is done again uncaptured."""
         m = self.model
+        if m.differentiable:
+            self.taped.apply(start, end, t, h)
+            return
         capturing = m.launcher.capturing
         count = self.detection.detect(start, end)
         if count == 0:
@@ -154,8 +175,7 @@ class BodyContacts(Pass):
         self._ensure(self.detection.contacts.capacity)
         threads = self.detection.threads()[1]
         T = m.scalar
-        gravity = m.gravity_magnitude
-        bounce = self.bounce_speed if self.bounce_speed is not None else max(2.0 * gravity * h, 1e-6)
+        bounce = self.bounce(h)
         B = m.body_count
         contacts = self.detection.contacts
         c = contacts.buffer
@@ -269,3 +289,13 @@ class BodyContacts(Pass):
         if self.merge_cpu_colours and self._places is not None:
             colours = [(-1 - self._places[colours[0][0]], sum(n for _, n in colours))]
         prepared.sweep(1, colours, sweeps)
+
+
+class _Covered(type):
+    def __instancecheck__(cls, part) -> bool:
+        return type(part) is BodyContacts and refusal(part) is None
+
+
+class CoveredBodyContacts(metaclass=_Covered):
+    """For ``isinstance`` only: a BodyContacts pass whose scene its taped response covers (adjoints.DIFFERENTIABLE
+    lists it; contact_adjoint.refusal says why another is not covered)."""
