@@ -3,7 +3,8 @@
 A differentiable Simulator runs only parts whose every launch a wp.Tape can take back: the five explicit
 solvers and implicit Euler (the adjoint of its linear solve, by the same CG), particles and rigid bodies
 (gravity, drag, wind, held and per-frame forces and torques), springs, the orientations' renormalisation and
-the particles' impacts on planes (at their time of impact, which the gradient goes through). Every other part an
+the particles' impacts on planes (at their time of impact, which the gradient goes through) and the body contacts
+of a scene ``passes.contact_adjoint.refusal`` covers (frictionless spheres and bodies on planes). Every other part an
 assembly can hold is refused before anything compiles or runs, with what it is and why it has no adjoint yet
 (``NoAdjoint``).
 """
@@ -12,18 +13,17 @@ from __future__ import annotations
 from . import forces, passes
 from .assembly import Assembly
 from .core.components import Particles, RigidBodies
+from .passes import contact_adjoint
 from .solvers import RK45
 
 #: the components, force terms and passes with adjoints (a solver says so itself: ``Integrator.differentiable``)
-DIFFERENTIABLE = (Particles, RigidBodies, forces.Springs, passes.ComponentProjection, passes.PlaneImpacts,
-                  passes.body_contacts.CoveredBodyContacts)
+DIFFERENTIABLE = (Particles, RigidBodies, forces.Springs, passes.ComponentProjection, passes.PlaneImpacts)
 
 FIXED_STEP = "use one of euler, midpoint, rk4, symplectic_euler, verlet, implicit_euler"
 #: each part without an adjoint: what it is, and why
 REFUSED = {
     passes.BodyContacts: ("body contacts", "only frictionless ones have one, between spheres and of any body on "
-                          "planes or static spheres, without joints (set friction=0 on every body and plane, or pass "
-                          "collisions=False to leave them out)"),
+                          "planes or static spheres, without joints (pass collisions=False to leave them out)"),
     passes.ParticleShapeContacts: ("particle contacts with bodies and colliders",
                                    "their time-of-impact response is not differentiated (pass collisions=False)"),
     forces.PlanePenalty: ("penalty contacts of particles on planes",
@@ -59,6 +59,11 @@ def refusals(parts: Assembly) -> list[tuple[str, str]]:
     found = [] if solver.differentiable else [
         REFUSED.get(type(solver), (f"integrator {type(solver).__name__}", f"it has no taped step ({FIXED_STEP})"))]
     for part in [*parts.dynamics.components, *parts.dynamics.force_terms, *parts.passes]:
+        if type(part) is passes.BodyContacts:   # covered or not by what its scene holds
+            why = contact_adjoint.refusal(part)
+            if why is not None:
+                found.append(("body contacts", f"{why}: {REFUSED[passes.BodyContacts][1]}"))
+            continue
         if not isinstance(part, DIFFERENTIABLE) and REFUSED.get(type(part)) not in found:
             found.append(REFUSED.get(type(part), (type(part).__name__, "it is not known to be differentiable")))
     return found

@@ -42,7 +42,7 @@ from ..core.state import State
 from ..detection import ContactManifolds, Detection
 from ..kernels import blocks
 from ..kernels import contacts as contact_kernels
-from .contact_adjoint import TapedResponse, refusal
+from .contact_adjoint import TapedResponse
 
 
 class BodyContacts(Pass):
@@ -290,12 +290,3 @@ class BodyContacts(Pass):
             colours = [(-1 - self._places[colours[0][0]], sum(n for _, n in colours))]
         prepared.sweep(1, colours, sweeps)
 
-
-class _Covered(type):
-    def __instancecheck__(cls, part) -> bool:
-        return type(part) is BodyContacts and refusal(part) is None
-
-
-class CoveredBodyContacts(metaclass=_Covered):
-    """For ``isinstance`` only: a BodyContacts pass whose scene its taped response covers (adjoints.DIFFERENTIABLE
-    lists it; contact_adjoint.refusal says why another is not covered)."""
