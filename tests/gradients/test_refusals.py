@@ -66,7 +66,7 @@ def attracted() -> ws.Scene:
 
 #: (scene, Simulator options, words the message must hold)
 REFUSED = {
-    "body contacts": (two_balls, {}, ["body contacts", "collisions=False"]),
+    "body contacts": (two_balls, {}, ["body contacts", "friction", "collisions=False"]),
     "particles and colliders": (particle_and_collider, {}, ["particle contacts with bodies and colliders"]),
     "plane penalty": (particles_on_ground, {"contact": "penalty"}, ["penalty contacts of particles on planes"]),
     "body penalty": (two_balls, {"contact": "penalty"}, ["penalty contacts of bodies", "collisions=False"]),
