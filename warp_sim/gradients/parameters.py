@@ -9,6 +9,11 @@ d loss / d (what the user set), float64 numpy:
   held, so its inertia scales with it, and its initial velocities held (P0 = M v0, L0 = M I_unit w0), as
   ``Scene.add_rigid_body(shape, mass=M)`` does;
 - ``spring_stiffness``, ``spring_damping``, ``spring_rest_length`` in ``scene.spring_array`` order;
+- ``restitution`` (bodies,) and ``plane_restitution`` (planes,), each side's own: a contact's restitution is the
+  mean of its two sides' (a body and a body or a plane), so d/d e_body is half d/d e_pair of each of its
+  contacts; the gradient flows through the taped body-contact response (passes.contact_adjoint) at the time of
+  impact, and plane_restitution's through the particles' plane impacts too (not particles' own restitutions);
+- ``friction`` is refused (FRICTION): a differentiable run covers frictionless contacts only;
 - ``gravity`` by the chain rule through the per-frame forces: g enters a free particle's acceleration as a force
   m g and a body's as M g, so d loss / d g = sum over frames of sum_i m_i dL/dF_i + sum_b M_b dL/dF_b (the
   kernels take g by value, which no tape differentiates);
@@ -36,11 +41,22 @@ WRT = {
     "spring_stiffness": ("spring_count", "the spring stiffnesses (springs,) [N/m]"),
     "spring_damping": ("spring_count", "the spring dampings (springs,) [N s/m]"),
     "spring_rest_length": ("spring_count", "the spring rest lengths (springs,) [m]"),
+    "restitution": ("body_count", "the bodies' restitutions (bodies,) [1], a contact taking the mean of its sides'"),
+    "plane_restitution": ("plane_count", "the planes' restitutions (planes,) [1]"),
     "gravity": (None, "the gravitational acceleration (3,) [m/s^2]"),
     "body_force": ("body_count", "the per-frame forces on the bodies (frames, bodies, 3) [N]"),
     "body_torque": ("body_count", "the per-frame torques on the bodies (frames, bodies, 3) [N m]"),
     "particle_force": ("particle_count", "the per-frame forces on the particles (frames, particles, 3) [N]"),
 }
+
+#: why ``friction`` is no name of WRT
+FRICTION = ("body friction has no gradient: a differentiable run refuses contacts with friction (the taped "
+            "contact response covers frictionless ones only; set friction=0 and leave friction out of wrt)")
+
+
+def _count(scene, count: str) -> int:
+    """The scene's number of the parts ``count`` names (a Scene has no plane_count: its planes' length)."""
+    return len(scene.planes) if count == "plane_count" else getattr(scene, count)
 
 
 def names(wrt, scene) -> list[str]:
@@ -48,10 +64,12 @@ def names(wrt, scene) -> list[str]:
     if isinstance(wrt, str) or not isinstance(wrt, (list, tuple)):
         raise checks.fail("wrt", wrt, f"expected a list of names among {', '.join(WRT)}")
     for name in wrt:
+        if name == "friction":
+            raise checks.fail("wrt", name, FRICTION)
         if name not in WRT:
             raise checks.fail("wrt", name, f"no such name; expected names among {', '.join(WRT)}")
         count = WRT[name][0]
-        if count is not None and getattr(scene, count) == 0:
+        if count is not None and _count(scene, count) == 0:
             raise checks.fail("wrt", name, f"it is {WRT[name][1]}, and the scene has none")
     if len(set(wrt)) != len(wrt):
         raise checks.fail("wrt", wrt, "expected each name once")
@@ -83,7 +101,9 @@ def gradient(name: str, start: State, model: Model, controls: Controls) -> np.nd
         return _grad(getattr(start, name))
     if name in CONTROLS:
         return controls.gradient(name)
-    if name.startswith("spring_"):
+    if name == "restitution":
+        return _grad(model.body_restitution)
+    if name.startswith("spring_") or name == "plane_restitution":
         return _grad(getattr(model, name))
     if name == "particle_mass":
         w = model.particle_inv_mass.numpy().astype(np.float64)

@@ -46,13 +46,30 @@ def body_point(geoms: Geoms, g: int, p: wp.vec3f):
     return geoms.samples[nearest] - geoms.com[g]
 
 
+@wp.func
+def pair_restitution(geoms: Geoms, planes: Any, restitution: wp.array(dtype=Any), i: int, j: int):
+    """contacts.pair_material's restitution in the model's precision, from the bodies' own (``restitution``, the
+    Model's body_restitution) and the planes' (Planes.restitution), which carry gradients in a differentiable run:
+    the mean of body i's and the other side's (a body's, plane -1 - j's, or a static collider's float32 one)."""
+    other = restitution[i]
+    if j < 0:
+        other = planes.restitution[-1 - j]
+    elif is_body(j, geoms.body_count):
+        other = restitution[j]
+    else:
+        other = type(other)(geoms.restitution[j])
+    return type(other)(0.5) * (restitution[i] + other)
+
+
 @wp.kernel
 def taped_rows(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), row_ids: wp.array(dtype=wp.vec2i),
-               geoms: Geoms, planes: Any, start: Any, end: Any, mass: Any, h: Any, bounce_speed: Any, slop: Any,
-               held_time: wp.array(dtype=Any), rows: Any, bounces: wp.array(dtype=wp.int32)):
+               geoms: Geoms, planes: Any, start: Any, end: Any, mass: Any, restitution: wp.array(dtype=Any), h: Any,
+               bounce_speed: Any, slop: Any, held_time: wp.array(dtype=Any), rows: Any,
+               bounces: wp.array(dtype=wp.int32)):
     """contacts.prepare_contacts with each contact's normal and points from the start poses: point1 body i's
     sample the narrow phase found (body_point), point2 its foot on the plane, or the other sphere's centre (a
-    body's or a static one's) with n along the centres.
+    body's or a static one's) with n along the centres; its restitution pair_restitution's, from the bodies' own
+    ``restitution`` (so that a gradient reaches them), its friction pair_material's.
     held_time: empty, or the times of impact [s] per row to use instead (held: the naive gradient); bounces: per
     row, 1 where the contact counts toward its bodies' impact time (contacts.bouncing)."""
     c = wp.tid()
@@ -82,9 +99,10 @@ def taped_rows(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), row_ids:
     r = slot[c]
     if held_time.shape[0] > 0:
         t = held_time[r]
-    e, mu = pair_material(geoms, i, j)
+    e = pair_restitution(geoms, planes, restitution, i, j)
+    _e, mu = pair_material(geoms, i, j)   # the friction (float32; refused above 0 in a differentiable run)
     row_ids[r] = pair
-    write_row(rows, r, a1, a2, round1, round2, n, t, closing, an, h, type(h)(e), type(h)(mu))
+    write_row(rows, r, a1, a2, round1, round2, n, t, closing, an, h, e, type(h)(mu))
     bounces[r] = wp.where(bouncing(t, vn_start, an, bounce_speed), 1, 0)
 
 
@@ -227,7 +245,7 @@ def taped_project(manifolds: ManifoldSet, colour: int, slot: int, rows: Any, mas
         moved[0] = 1
 
 
-register(globals(), held_time="scalar", times="scalar", first="scalar", impact="scalar", target="scalar",
-         inv_inertia_world="mat33", v_in="vec3", w_in="vec3", v_out="vec3", w_out="vec3", jn_in="scalar",
-         jt_in="vec3", jn_out="scalar", jt_out="vec3", x_in="vec3", q_in="quat", x_out="vec3",
+register(globals(), held_time="scalar", restitution="scalar", times="scalar", first="scalar", impact="scalar",
+         target="scalar", inv_inertia_world="mat33", v_in="vec3", w_in="vec3", v_out="vec3", w_out="vec3",
+         jn_in="scalar", jt_in="vec3", jn_out="scalar", jt_out="vec3", x_in="vec3", q_in="quat", x_out="vec3",
          q_out="quat")

@@ -167,7 +167,7 @@ class TapedResponse:
         bounces = m.zeros(n, wp.int32)
         inputs = [c, self.slot, row_ids, self.geoms,
                   m.planes if m.planes is not None else m.no_planes(), start.bodies, self._bodies(pre), m.body_mass,
-                  T(h), T(bc.bounce(h)), T(bc.slop), m.empty(), rows, bounces]
+                  m.body_restitution, T(h), T(bc.bounce(h)), T(bc.slop), m.empty(), rows, bounces]
         if bc.hold_impact_time:
             with paused():
                 m.launch(taped.taped_rows, n, inputs[:-2] + [scratch, bounces])
