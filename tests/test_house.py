@@ -93,3 +93,10 @@ def test_module_is_short_and_imports_at_the_top(path):
                 names = [node.module] if isinstance(node, ast.ImportFrom) else [a.name for a in node.names]
                 assert all(n in OPTIONAL for n in names), \
                     f"{path.name}:{node.lineno} imports {names} inside {function.name}()"
+
+
+def test_every_test_file_has_a_basename_of_its_own():
+    """pytest imports test files by basename (no __init__.py in tests/): two of one name stop the whole run at
+    collection."""
+    names = [path.name for path in pathlib.Path(__file__).parent.rglob("test_*.py")]
+    assert sorted(name for name in set(names) if names.count(name) > 1) == []
