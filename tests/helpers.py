@@ -8,6 +8,7 @@ from pxr import Sdf
 
 import warp_sim as ws
 from warp_sim.scene import SurfaceMesh
+from warp_sim.util.rotations import quat_to_matrix
 
 G = 9.81
 
@@ -101,3 +102,11 @@ def load_tool(name: str):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def turn_between(q0, q1) -> tuple[float, np.ndarray]:
+    """(angle [rad], unit axis) of the world rotation taking orientation q0 to q1 (quaternions x, y, z, w)."""
+    turn = quat_to_matrix(np.asarray(q1, float)) @ quat_to_matrix(np.asarray(q0, float)).T
+    angle = float(np.arccos(np.clip((np.trace(turn) - 1.0) / 2.0, -1.0, 1.0)))
+    axis = np.array([turn[2, 1] - turn[1, 2], turn[0, 2] - turn[2, 0], turn[1, 0] - turn[0, 1]])
+    return angle, axis / np.linalg.norm(axis)
