@@ -80,7 +80,7 @@ def point_block(inv_mass: Any, inv_inertia: Any, r: Any):
 
 
 @wp.func
-def held_spin(held: int, K_lin: Any, imp: Any, Ip: Any, imc: Any, Ic: Any, rp: Any, rc: Any):
+def held_spin(held: int, K_lin_inv: Any, imp: Any, Ip: Any, imc: Any, Ic: Any, rp: Any, rc: Any):
     """(C, S) for angular rows while the anchor is held (held = 1: the joint's linear axes all locked): an
     angular impulse tau [N m s] on the child with the linear impulse C tau at the anchors leaves the anchors'
     relative velocity unchanged, and changes the relative spin by S tau (S = K_ang - B^T K_lin^-1 B, B the
@@ -89,7 +89,7 @@ def held_spin(held: int, K_lin: Any, imp: Any, Ip: Any, imc: Any, Ic: Any, rp: A
     B = -(wp.skew(rc) * Ic + wp.skew(rp) * Ip)
     C = B * (imc * type(imc)(0.0))
     if held == 1:
-        C = -(wp.inverse(K_lin) * B)
+        C = -(K_lin_inv * B)
     return C, Ic + Ip + wp.transpose(B) * C
 
 
@@ -263,7 +263,8 @@ def solve_joints(joints: Any, first: int, iterations: int, sweep: int, h: Any, b
     all_angular = ang_mode[0] == LOCKED and ang_mode[1] == LOCKED and ang_mode[2] == LOCKED
     K_lin = point_block(imc, Ic, rc) + point_block(imp, Ip, rp)
     K_ang = Ic + Ip
-    C, S = held_spin(wp.where(all_linear, 1, 0), K_lin, imp, Ip, imc, Ic, rp, rc)
+    K_lin_inv = wp.inverse(K_lin)
+    C, S = held_spin(wp.where(all_linear, 1, 0), K_lin_inv, imp, Ip, imc, Ic, rp, rc)
     K_lin_held = K_lin   # the linear rows' response with the rotation held (scales an acceleration drive)
     if all_angular:
         B = -(wp.skew(rc) * Ic + wp.skew(rp) * Ip)
@@ -275,7 +276,7 @@ def solve_joints(joints: Any, first: int, iterations: int, sweep: int, h: Any, b
         # linear rows
         rel = side_velocity(work, c, rc) - side_velocity(work, p, rp)
         if all_linear:
-            impulse = -(wp.inverse(K_lin) * rel)
+            impulse = -(K_lin_inv * rel)
             push_velocities(work, p, c, imp, Ip, imc, Ic, rp, rc, impulse, rel * zero)
             joints.lam_lin[j] = joints.lam_lin[j] + wp.quat_rotate_inv(fp, impulse)
         else:
@@ -436,8 +437,8 @@ def project_joints(joints: Any, first: int, iterations: int, sweep: int, end: An
         pc, rc, fc = joint_side(end.x, end.q, c, joints.anchor_c[j], joints.frame_c[j])
         imp, Ip = side_inverse(mass, end.q, p, zero)
         imc, Ic = side_inverse(mass, end.q, c, zero)
-        C, K = held_spin(wp.where(all_linear, 1, 0), point_block(imc, Ic, rc) + point_block(imp, Ip, rp), imp, Ip,
-                         imc, Ic, rp, rc)
+        K_lin_inv = wp.inverse(point_block(imc, Ic, rc) + point_block(imp, Ip, rp))
+        C, K = held_spin(wp.where(all_linear, 1, 0), K_lin_inv, imp, Ip, imc, Ic, rp, rc)
         if all_angular:
             offset = fp * wp.quat_inverse(fc)   # turns the child's frame onto the parent's
             if offset[3] < zero:
