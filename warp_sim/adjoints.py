@@ -4,9 +4,9 @@ A differentiable Simulator runs only parts whose every launch a wp.Tape can take
 solvers and implicit Euler (the adjoint of its linear solve, by the same CG), particles and rigid bodies
 (gravity, drag, wind, held and per-frame forces and torques), springs, the orientations' renormalisation and
 the particles' impacts on planes (at their time of impact, which the gradient goes through) and the body contacts
-of a scene ``passes.contact_adjoint.refusal`` covers (frictionless spheres and bodies on planes). Every other part an
-assembly can hold is refused before anything compiles or runs, with what it is and why it has no adjoint yet
-(``NoAdjoint``).
+of a scene ``passes.contact_adjoint.refusal`` covers (spheres, and bodies on planes, with friction and
+restitution). Every other part an assembly can hold is refused before anything compiles or runs, with what it
+is and why it has no adjoint yet (``NoAdjoint``).
 """
 from __future__ import annotations
 
@@ -22,8 +22,8 @@ DIFFERENTIABLE = (Particles, RigidBodies, forces.Springs, passes.ComponentProjec
 FIXED_STEP = "use one of euler, midpoint, rk4, symplectic_euler, verlet, implicit_euler"
 #: each part without an adjoint: what it is, and why
 REFUSED = {
-    passes.BodyContacts: ("body contacts", "only frictionless ones have one, between spheres and of any body on "
-                          "planes or static spheres, without joints (pass collisions=False to leave them out)"),
+    passes.BodyContacts: ("body contacts", "only those between spheres and of any body on planes or static spheres "
+                          "have one, without joints (pass collisions=False to leave them out)"),
     passes.ParticleShapeContacts: ("particle contacts with bodies and colliders",
                                    "their time-of-impact response is not differentiated (pass collisions=False)"),
     forces.PlanePenalty: ("penalty contacts of particles on planes",

@@ -21,6 +21,13 @@ def two_balls(**options) -> ws.Scene:
     return scene
 
 
+def two_boxes() -> ws.Scene:
+    scene = ws.Scene(precision="float64")
+    scene.add_rigid_body(ws.Box((0.1, 0.1, 0.1)), mass=1.0, position=(0.0, 1.0, 0.0))
+    scene.add_rigid_body(ws.Box((0.1, 0.1, 0.1)), mass=1.0, position=(0.5, 1.0, 0.0))
+    return scene
+
+
 def particles_on_ground() -> ws.Scene:
     scene = projectile()
     scene.add_ground()
@@ -66,7 +73,8 @@ def attracted() -> ws.Scene:
 
 #: (scene, Simulator options, words the message must hold)
 REFUSED = {
-    "body contacts": (two_balls, {}, ["body contacts", "friction", "collisions=False"]),
+    "body contacts": (two_boxes, {}, ["body contacts", "pairs of bodies other than two spheres",
+                                       "collisions=False"]),
     "particles and colliders": (particle_and_collider, {}, ["particle contacts with bodies and colliders"]),
     "plane penalty": (particles_on_ground, {"contact": "penalty"}, ["penalty contacts of particles on planes"]),
     "body penalty": (two_balls, {"contact": "penalty"}, ["penalty contacts of bodies", "collisions=False"]),

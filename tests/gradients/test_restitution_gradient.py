@@ -1,5 +1,5 @@
 """Gradients with respect to restitution (wrt "restitution", per body, and "plane_restitution", per plane) through
-the taped body-contact response at the time of impact, against closed forms; "friction" refused by name.
+the taped body-contact response at the time of impact, against closed forms.
 
 A contact's restitution is the mean of its two sides' (kernels.contacts.pair_material), so with both sides set to
 the same e the pair's is e and d/d e_body = d/d e_plane = 1/2 d/d e_pair. Float64, rk4, 60 fps, 8 substeps.
@@ -77,11 +77,6 @@ def test_a_head_on_collision_has_the_closed_form_restitution_gradient():
     np.testing.assert_allclose(grads["restitution"], [0.5 * pair, 0.5 * pair], rtol=1e-3)
     assert grads["restitution"].sum() == pytest.approx(pair, rel=1e-3)
     np.testing.assert_allclose(grads["restitution"], [0.5 * pair, 0.5 * pair], rtol=1e-12)   # what it measures
-
-
-def test_friction_is_refused_by_name():
-    with pytest.raises(ValueError, match="friction.*no gradient.*frictionless"):
-        ws.gradient(head_on(0.8), coordinate_loss(1, 0), ["friction"], seconds=0.1)
 
 
 def test_plane_restitution_needs_a_plane():

@@ -13,7 +13,10 @@ d loss / d (what the user set), float64 numpy:
   mean of its two sides' (a body and a body or a plane), so d/d e_body is half d/d e_pair of each of its
   contacts; the gradient flows through the taped body-contact response (passes.contact_adjoint) at the time of
   impact, and plane_restitution's through the particles' plane impacts too (not particles' own restitutions);
-- ``friction`` is refused (FRICTION): a differentiable run covers frictionless contacts only;
+- ``friction`` (bodies,) and ``plane_friction`` (planes,) the same way, through the friction impulses of the
+  taped response: where a contact slides, the Coulomb limit mu Jn moves with mu; where it sticks, friction is
+  whatever stops the sliding and mu does not enter (its gradient there is 0, the one-sided derivative of a
+  contact that stays stuck);
 - ``gravity`` by the chain rule through the per-frame forces: g enters a free particle's acceleration as a force
   m g and a body's as M g, so d loss / d g = sum over frames of sum_i m_i dL/dF_i + sum_b M_b dL/dF_b (the
   kernels take g by value, which no tape differentiates);
@@ -43,16 +46,14 @@ WRT = {
     "spring_rest_length": ("spring_count", "the spring rest lengths (springs,) [m]"),
     "restitution": ("body_count", "the bodies' restitutions (bodies,) [1], a contact taking the mean of its sides'"),
     "plane_restitution": ("plane_count", "the planes' restitutions (planes,) [1]"),
+    "friction": ("body_count", "the bodies' friction coefficients (bodies,) [1], a contact taking the mean of its "
+                 "sides'"),
+    "plane_friction": ("plane_count", "the planes' friction coefficients (planes,) [1]"),
     "gravity": (None, "the gravitational acceleration (3,) [m/s^2]"),
     "body_force": ("body_count", "the per-frame forces on the bodies (frames, bodies, 3) [N]"),
     "body_torque": ("body_count", "the per-frame torques on the bodies (frames, bodies, 3) [N m]"),
     "particle_force": ("particle_count", "the per-frame forces on the particles (frames, particles, 3) [N]"),
 }
-
-#: why ``friction`` is no name of WRT
-FRICTION = ("body friction has no gradient: a differentiable run refuses contacts with friction (the taped "
-            "contact response covers frictionless ones only; set friction=0 and leave friction out of wrt)")
-
 
 def _count(scene, count: str) -> int:
     """The scene's number of the parts ``count`` names (a Scene has no plane_count: its planes' length)."""
@@ -64,8 +65,6 @@ def names(wrt, scene) -> list[str]:
     if isinstance(wrt, str) or not isinstance(wrt, (list, tuple)):
         raise checks.fail("wrt", wrt, f"expected a list of names among {', '.join(WRT)}")
     for name in wrt:
-        if name == "friction":
-            raise checks.fail("wrt", name, FRICTION)
         if name not in WRT:
             raise checks.fail("wrt", name, f"no such name; expected names among {', '.join(WRT)}")
         count = WRT[name][0]
@@ -101,9 +100,9 @@ def gradient(name: str, start: State, model: Model, controls: Controls) -> np.nd
         return _grad(getattr(start, name))
     if name in CONTROLS:
         return controls.gradient(name)
-    if name == "restitution":
-        return _grad(model.body_restitution)
-    if name.startswith("spring_") or name == "plane_restitution":
+    if name in ("restitution", "friction"):
+        return _grad(getattr(model, f"body_{name}"))
+    if name.startswith("spring_") or name in ("plane_restitution", "plane_friction"):
         return _grad(getattr(model, name))
     if name == "particle_mass":
         w = model.particle_inv_mass.numpy().astype(np.float64)

@@ -43,9 +43,9 @@ def gradient(scene: Scene, loss, wrt=(), *, seconds: float, fps: float = 60.0, s
     wrt: names of gradients.parameters.WRT: particle_x, particle_v, body_x, body_v, body_w (the initial state:
         positions, velocities, world-frame angular velocities), particle_mass, body_mass, spring_stiffness,
         spring_damping, spring_rest_length (scene.spring_array order), restitution (bodies,) and
-        plane_restitution (planes,) (each side's own; a contact takes the mean of its two), gravity (3,), and the
-        per-frame controls body_force, body_torque (frames, bodies, 3), particle_force (frames, particles, 3);
-        friction is refused (a differentiable run covers frictionless contacts only).
+        plane_restitution (planes,), friction (bodies,) and plane_friction (planes,) (each side's own; a contact
+        takes the mean of its two), gravity (3,), and the per-frame controls body_force, body_torque (frames,
+        bodies, 3), particle_force (frames, particles, 3).
     controls: per-frame controls held over each frame (row j from t = j / fps to (j + 1) / fps), by name, each of
         shape (frames, count, 3) (numpy or Warp); zero unless given.
 

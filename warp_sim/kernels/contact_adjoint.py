@@ -20,7 +20,6 @@ from .contacts import (
     contact_impact_levers,
     contact_row,
     impact_target,
-    pair_material,
     write_row,
 )
 from .detection import ContactBuffer, Geoms, beyond, is_body
@@ -47,29 +46,31 @@ def body_point(geoms: Geoms, g: int, p: wp.vec3f):
 
 
 @wp.func
-def pair_restitution(geoms: Geoms, planes: Any, restitution: wp.array(dtype=Any), i: int, j: int):
-    """contacts.pair_material's restitution in the model's precision, from the bodies' own (``restitution``, the
-    Model's body_restitution) and the planes' (Planes.restitution), which carry gradients in a differentiable run:
-    the mean of body i's and the other side's (a body's, plane -1 - j's, or a static collider's float32 one)."""
-    other = restitution[i]
+def pair_value(geoms: Geoms, plane_values: wp.array(dtype=Any), static_values: wp.array(dtype=wp.float32),
+               values: wp.array(dtype=Any), i: int, j: int):
+    """A contact's restitution or friction (contacts.pair_material's) in the model's precision, from the bodies'
+    own ``values`` (the Model's body_restitution or body_friction) and the planes' (``plane_values``), which carry
+    gradients in a differentiable run: the mean of body i's and the other side's (a body's, plane -1 - j's, or a
+    static collider's float32 one in ``static_values``, the Geoms' restitution or friction)."""
+    other = values[i]
     if j < 0:
-        other = planes.restitution[-1 - j]
+        other = plane_values[-1 - j]
     elif is_body(j, geoms.body_count):
-        other = restitution[j]
+        other = values[j]
     else:
-        other = type(other)(geoms.restitution[j])
-    return type(other)(0.5) * (restitution[i] + other)
+        other = type(other)(static_values[j])
+    return type(other)(0.5) * (values[i] + other)
 
 
 @wp.kernel
 def taped_rows(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), row_ids: wp.array(dtype=wp.vec2i),
-               geoms: Geoms, planes: Any, start: Any, end: Any, mass: Any, restitution: wp.array(dtype=Any), h: Any,
-               bounce_speed: Any, slop: Any, held_time: wp.array(dtype=Any), rows: Any,
-               bounces: wp.array(dtype=wp.int32)):
+               geoms: Geoms, planes: Any, start: Any, end: Any, mass: Any, restitution: wp.array(dtype=Any),
+               friction: wp.array(dtype=Any), h: Any, bounce_speed: Any, slop: Any, held_time: wp.array(dtype=Any),
+               rows: Any, bounces: wp.array(dtype=wp.int32)):
     """contacts.prepare_contacts with each contact's normal and points from the start poses: point1 body i's
     sample the narrow phase found (body_point), point2 its foot on the plane, or the other sphere's centre (a
-    body's or a static one's) with n along the centres; its restitution pair_restitution's, from the bodies' own
-    ``restitution`` (so that a gradient reaches them), its friction pair_material's.
+    body's or a static one's) with n along the centres; its restitution and friction pair_value's, from the
+    bodies' own ``restitution`` and ``friction`` (the Model's, so that a gradient reaches them) and the planes'.
     held_time: empty, or the times of impact [s] per row to use instead (held: the naive gradient); bounces: per
     row, 1 where the contact counts toward its bodies' impact time (contacts.bouncing)."""
     c = wp.tid()
@@ -99,10 +100,10 @@ def taped_rows(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), row_ids:
     r = slot[c]
     if held_time.shape[0] > 0:
         t = held_time[r]
-    e = pair_restitution(geoms, planes, restitution, i, j)
-    _e, mu = pair_material(geoms, i, j)   # the friction (float32; refused above 0 in a differentiable run)
+    e = pair_value(geoms, planes.restitution, geoms.restitution, restitution, i, j)
+    mu = pair_value(geoms, planes.friction, geoms.friction, friction, i, j)
     row_ids[r] = pair
-    write_row(rows, r, a1, a2, round1, round2, n, t, closing, an, h, e, type(h)(mu))
+    write_row(rows, r, a1, a2, round1, round2, n, t, closing, an, h, e, mu)
     bounces[r] = wp.where(bouncing(t, vn_start, an, bounce_speed), 1, 0)
 
 
@@ -245,7 +246,7 @@ def taped_project(manifolds: ManifoldSet, colour: int, slot: int, rows: Any, mas
         moved[0] = 1
 
 
-register(globals(), held_time="scalar", restitution="scalar", times="scalar", first="scalar", impact="scalar",
-         target="scalar", inv_inertia_world="mat33", v_in="vec3", w_in="vec3", v_out="vec3", w_out="vec3",
-         jn_in="scalar", jt_in="vec3", jn_out="scalar", jt_out="vec3", x_in="vec3", q_in="quat", x_out="vec3",
-         q_out="quat")
+register(globals(), held_time="scalar", restitution="scalar", friction="scalar", times="scalar", first="scalar",
+         impact="scalar", target="scalar", inv_inertia_world="mat33", v_in="vec3", w_in="vec3", v_out="vec3",
+         w_out="vec3", jn_in="scalar", jt_in="vec3", jn_out="scalar", jt_out="vec3", x_in="vec3", q_in="quat",
+         x_out="vec3", q_out="quat")

@@ -27,8 +27,13 @@ run that makes the same choices, one-sided where a change of the input would cha
 ``BodyContacts.hold_impact_time`` holds the times of impact too: the naive discrete gradient, which misses how
 the bounce moves with the impact (for comparison only).
 
-Covered (``refusal`` says why not): frictionless contacts (friction 0 on every body and plane) between spheres,
-of any body on planes, and of spheres on static spheres; no joints inside the pass.
+Friction: the Coulomb impulses of the same updates, each contact's coefficient the mean of its sides' in the
+model's precision (the bodies' and planes' own, so that a gradient reaches them). Where a contact slides, the
+limit mu Jn carries mu and Jn into the gradient; where it sticks, the impulse is whatever stops the sliding, and
+mu does not enter (held: the one-sided derivative of a contact that stays stuck).
+
+Covered (``refusal`` says why not): contacts between spheres, of any body on planes, and of spheres on static
+spheres, with restitution and friction; no joints inside the pass.
 """
 from __future__ import annotations
 
@@ -51,8 +56,6 @@ def refusal(contacts) -> str | None:
         return "joints swept inside the contact solve"
     geoms, bodies = contacts.geometry.geoms, contacts.model.body_count
     kinds = geoms.kind.numpy()
-    if (geoms.friction.numpy() > 0.0).any() or (geoms.plane_friction.numpy() > 0.0).any():
-        return "friction (set friction=0 on every body and plane)"
     if (kinds[bodies:] != KINDS["sphere"]).any():
         return "static colliders other than spheres"
     shaped = kinds[:bodies][kinds[:bodies] != KINDS["none"]]
@@ -167,7 +170,7 @@ class TapedResponse:
         bounces = m.zeros(n, wp.int32)
         inputs = [c, self.slot, row_ids, self.geoms,
                   m.planes if m.planes is not None else m.no_planes(), start.bodies, self._bodies(pre), m.body_mass,
-                  m.body_restitution, T(h), T(bc.bounce(h)), T(bc.slop), m.empty(), rows, bounces]
+                  m.body_restitution, m.body_friction, T(h), T(bc.bounce(h)), T(bc.slop), m.empty(), rows, bounces]
         if bc.hold_impact_time:
             with paused():
                 m.launch(taped.taped_rows, n, inputs[:-2] + [scratch, bounces])
