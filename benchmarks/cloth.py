@@ -289,6 +289,37 @@ class TaichiGatherCloth(TaichiCloth):
         return step
 
 
+def newton_builder(newton, scene: ws.Scene, gravity=GRAVITY):
+    """A Newton ModelBuilder (y up, ``gravity``) with the scene's particles (pinned: mass 0) and springs (rest
+    length: the initial distance, measured again in float32 by Newton; newton_model sets the scene's)."""
+    builder = newton.ModelBuilder(up_axis=newton.Axis.Y, gravity=tuple(float(g) for g in gravity))  # a 3-vector
+    mass, pinned = scene.particle_array("mass"), scene.particle_array("pinned")
+    for position, m, pin in zip(scene.particle_array("position").tolist(), mass.tolist(), pinned.tolist(),
+                                strict=True):
+        builder.add_particle(tuple(position), (0.0, 0.0, 0.0), 0.0 if pin else m)
+    extra = {"control": 0.0} if "control" in inspect.signature(builder.add_spring).parameters else {}
+    for (a, b), ke, kd in zip(scene.spring_array("pairs").tolist(), scene.spring_array("stiffness").tolist(),
+                              scene.spring_array("damping").tolist(), strict=True):
+        builder.add_spring(a, b, ke, kd, **extra)
+    return builder
+
+
+def newton_model(builder, scene: ws.Scene, device, requires_grad: bool = False):
+    """builder.finalize on ``device`` with the scene's rest lengths, particle-particle contact off
+    (model.particle_grid = None)."""
+    model = builder.finalize(device=device.alias, requires_grad=requires_grad)
+    # Newton's builder measures rest lengths in float32; the scene's (float64) make the two agree to the digit
+    model.spring_rest_length.assign(scene.spring_array("rest_length").astype(np.float32))
+    model.particle_grid = None
+    return model
+
+
+def newton_solver(newton, model):
+    """SolverSemiImplicit (symplectic Euler) with triangle contact off."""
+    solver = getattr(newton.solvers, "SolverSemiImplicit", None) or newton.solvers.SemiImplicitSolver
+    return solver(model, enable_tri_contact=False)
+
+
 class NewtonCloth:
     """Newton's SolverSemiImplicit (symplectic Euler) on the same particles (pinned: mass 0) and springs, y up;
     no triangles, triangle contact off, particle-particle contact off (model.particle_grid = None), no shapes."""
@@ -296,21 +327,8 @@ class NewtonCloth:
     name, precision = "Newton", "float32"
 
     def __init__(self, newton, scene: ws.Scene, device):
-        builder = newton.ModelBuilder(up_axis=newton.Axis.Y, gravity=tuple(float(g) for g in GRAVITY))  # a 3-vector
-        mass, pinned = scene.particle_array("mass"), scene.particle_array("pinned")
-        for position, m, pin in zip(scene.particle_array("position").tolist(), mass.tolist(), pinned.tolist(),
-                                    strict=True):
-            builder.add_particle(tuple(position), (0.0, 0.0, 0.0), 0.0 if pin else m)
-        extra = {"control": 0.0} if "control" in inspect.signature(builder.add_spring).parameters else {}
-        for (a, b), ke, kd in zip(scene.spring_array("pairs").tolist(), scene.spring_array("stiffness").tolist(),
-                                  scene.spring_array("damping").tolist(), strict=True):
-            builder.add_spring(a, b, ke, kd, **extra)  # rest length: the initial distance, as in warp_sim
-        self.model = builder.finalize(device=device.alias)
-        # Newton's builder measures rest lengths in float32; the scene's (float64) make the two agree to the digit
-        self.model.spring_rest_length.assign(scene.spring_array("rest_length").astype(np.float32))
-        self.model.particle_grid = None
-        solver = getattr(newton.solvers, "SolverSemiImplicit", None) or newton.solvers.SemiImplicitSolver
-        self.solver = solver(self.model, enable_tri_contact=False)
+        self.model = newton_model(newton_builder(newton, scene), scene, device)
+        self.solver = newton_solver(newton, self.model)
         self.states = [self.model.state(), self.model.state()]
         self.control = self.model.control()
 

@@ -1,12 +1,14 @@
 """Shared by the benchmark scripts: device choice, the copy-bandwidth floor, step timing, per-kernel timing,
-markdown tables, the host's name.
+markdown tables, the host's name, the checkout's commit.
 
 Imported as ``common`` by scripts run as ``python benchmarks/<name>.py`` (their folder is on sys.path).
 """
 from __future__ import annotations
 
 import argparse
+import os
 import platform
+import subprocess
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -14,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
+import warp_sim
 from warp_sim import Simulator
 from warp_sim.simulator import resolve_device
 
@@ -101,6 +104,27 @@ def cpu_model() -> str:
     names = [line.split(":", 1)[1].strip() for line in (cpuinfo.read_text().splitlines() if cpuinfo.exists() else [])
              if line.startswith("model name")]
     return names[0] if names else platform.processor() or platform.machine()
+
+
+def git_state(root: Path | None = None) -> dict:
+    """The checkout whose warp_sim was imported (default: the folder above it; PYTHONPATH may point at another
+    worktree): its HEAD commit and the files under warp_sim/ that differ from it (what was measured is the working
+    tree); {} outside a git checkout."""
+    root = root or Path(warp_sim.__file__).resolve().parents[1]
+    try:
+        commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
+                                check=True).stdout.strip()
+        status = subprocess.run(["git", "--no-optional-locks", "-C", str(root), "status", "--porcelain", "--",
+                                 "warp_sim"], capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return {}
+    return {"commit": commit, "warp_sim_modified": [line[3:] for line in status.splitlines()]}
+
+
+def environment() -> dict:
+    """The environment variables that change what a run measures: numpy's BLAS threads (a Scene's stable-step
+    estimate runs on them), OpenMP's, and PYTHONPATH (which warp_sim is imported)."""
+    return {key: os.environ.get(key) for key in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "PYTHONPATH")}
 
 
 def device_name(device) -> str:

@@ -1,8 +1,8 @@
 """Side by side: warp_sim and every installed peer on the same four workloads, checked, then timed; one table.
 
     python benchmarks/compare.py [--device cpu|cuda] [--quick] [--workloads cloth particles pile bigpile]
-                                 [--only warp_sim newton ...] [--pile-dt 1/500] [--budget S] [--timeout S]
-                                 [--out benchmarks/results/compare.json]
+                                 [--only warp_sim newton ...] [--baseline REV [REV ...]] [--pile-dt 1/500]
+                                 [--budget S] [--timeout S] [--out benchmarks/results/compare.json]
 
 Workloads (full sizes by default; --quick: smaller sizes and fewer steps, a couple of minutes in all):
   cloth      benchmarks/cloth.py's cloth (structural, shear and bend springs, gravity, two pinned corners,
@@ -39,18 +39,30 @@ timed, and the check is printed next to its speed:
 A ground check passes at no more than MAX_DEPTH (1 mm) deep: a softer contact's sinking is reported as a failure,
 not rewarded by its speed. Nothing about times is asserted. Results: one markdown table and --out (JSON). See
 benchmarks/README.md.
+
+--baseline REV ...: each revision is another implementation of every workload, "warp_sim @ REV", beside the
+working tree's warp_sim in the same rounds: the revision checked out by ``git worktree add`` in a temporary
+folder (``worktree``), its workers this script's own (the same benchmark code) with PYTHONPATH at that folder,
+so that they import that revision's warp_sim (each result says which it imported; a worker that did not import
+it fails). The worktrees are removed at the end. A second table gives the working tree's speed over each
+revision's, and each later revision's over the first's (e.g. ``--baseline 8dcb2b4 HEAD``: the forward speed
+before and after a change, committed, whatever the working tree holds).
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import importlib.metadata
 import importlib.util
 import json
 import math
 import os
+import shutil
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from functools import partial
 from pathlib import Path
@@ -61,7 +73,7 @@ import numpy as np
 import particles
 import rounds
 import warp as wp
-from common import device_name, floor_bandwidth, markdown, pick_device
+from common import device_name, environment, floor_bandwidth, git_state, markdown, pick_device
 
 import warp_sim as ws
 from warp_sim.core.cpu_threads import cpu_threads
@@ -538,7 +550,7 @@ def worker(args, device) -> None:
             round_, finish = prepare_particles(key, n, cfg, device, modules)
         else:
             round_, finish = prepare_pile(key, n, cfg, device, modules, args.pile_dt, args.budget or BUDGET[mode])
-        return round_, lambda seconds: {**finish(seconds), "status": "ok"}
+        return round_, lambda seconds: {**finish(seconds), "status": "ok", "warp_sim_path": WARP_SIM_PATH}
 
     rounds.serve(cfg["sizes"], prepare, failure)
 
@@ -553,6 +565,51 @@ def failure(error: Exception) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------------- parent
+
+ROOT = Path(__file__).resolve().parents[1]
+WARP_SIM_PATH = str(Path(ws.__file__).resolve().parent)   # the warp_sim a worker imported
+BASELINE = "warp_sim@"   # a baseline's key: BASELINE + the revision as given
+
+
+@contextlib.contextmanager
+def worktree(revision: str, repository: Path = ROOT):
+    """A checkout of ``revision`` (``git worktree add --detach``) in a new temporary folder: yields (its root,
+    the full commit); removed with the folder afterwards, whatever happened (``git worktree remove --force``,
+    then ``git worktree prune``). A revision git cannot resolve is a ValueError, a failed checkout a
+    RuntimeError."""
+    found = subprocess.run(["git", "-C", str(repository), "rev-parse", "--verify", "--quiet", f"{revision}^{{commit}}"],
+                           capture_output=True, text=True)
+    if found.returncode != 0:
+        raise ValueError(f"--baseline {revision}: not a commit of {repository}")
+    commit = found.stdout.strip()
+    folder = Path(tempfile.mkdtemp(prefix="warp_sim-baseline-"))
+    root = folder / commit[:12]
+    try:
+        added = subprocess.run(["git", "-C", str(repository), "worktree", "add", "--detach", str(root), commit],
+                               capture_output=True, text=True)
+        if added.returncode != 0:
+            raise RuntimeError(f"--baseline {revision}: git worktree add failed: {added.stderr.strip()}")
+        yield root, commit
+    finally:
+        subprocess.run(["git", "-C", str(repository), "worktree", "remove", "--force", str(root)],
+                       capture_output=True, text=True)
+        shutil.rmtree(folder, ignore_errors=True)
+        subprocess.run(["git", "-C", str(repository), "worktree", "prune"], capture_output=True, text=True)
+
+
+def baseline_command(command: list[str], root: Path) -> list[str]:
+    """A worker command that imports the warp_sim of the checkout at ``root`` (PYTHONPATH first)."""
+    path = os.pathsep.join([str(root)] + ([os.environ["PYTHONPATH"]] if os.environ.get("PYTHONPATH") else []))
+    return ["env", f"PYTHONPATH={path}"] + command
+
+
+def imported_from(result: dict, root: Path) -> dict:
+    """A baseline worker's result, failed unless it imported the warp_sim at ``root``."""
+    path = result.get("warp_sim_path")
+    if path is None or Path(path) == root.resolve() / "warp_sim":
+        return result
+    return {"status": f"failed: imported warp_sim from {path}, not from the baseline's {root}"}
+
 
 def worker_command(workload: str, key: str, args, device) -> list[str]:
     return [sys.executable, str(Path(__file__).resolve()), "--worker", workload, key, "--device", device.alias,
@@ -601,6 +658,34 @@ def table(rows: list[dict]) -> str:
                     left=("workload", "size", "implementation", "check"))
 
 
+def baseline_table(rows: list[dict], keys: list[str]) -> str:
+    """The working tree's warp_sim against each baseline, per workload and size: steps/s, and the median of the
+    per-round ratios (rounds.paired_ratio): the working tree's speed over the baseline's, and each later
+    baseline's over the first's. Above 1: faster than the baseline."""
+    header = ["workload", "size", "warp_sim (working tree) steps/s"]
+    for key in keys:
+        header += [f"{key.replace(BASELINE, 'warp_sim @ ')} steps/s", f"working tree / {key[len(BASELINE):]}"]
+    header += [f"{key[len(BASELINE):]} / {keys[0][len(BASELINE):]}" for key in keys[1:]]
+    cells = []
+    by_size: dict = {}
+    for row in rows:
+        by_size.setdefault((row["workload_label"], row["size_label"]), {})[row["key"]] = row
+    for (workload, size), found in by_size.items():
+        here = found["warp_sim"]
+        line = [workload, size, f"{here['steps_per_s']:,.1f}" if here.get("steps_per_s") else here["status"]]
+        for key in keys:
+            row = found[key]
+            line += [f"{row['steps_per_s']:,.1f}" if row.get("steps_per_s") else row["status"].replace("|", "/"),
+                     f"{row['paired_ratio']:.3f}x" if row.get("paired_ratio") else "-"]
+        first = found[keys[0]]
+        for key in keys[1:]:
+            ratio = rounds.paired_ratio(first.get("seconds"), found[key].get("seconds"))
+            found[key]["over_first_baseline"] = ratio
+            line.append(f"{ratio:.3f}x" if ratio else "-")
+        cells.append(line)
+    return markdown(header, cells, left=("workload", "size"))
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--device", choices=("cpu", "cuda"), default=None, help="default: cuda if present, else cpu")
@@ -616,6 +701,9 @@ def main(argv=None) -> None:
     parser.add_argument("--timeout", type=float, default=None,
                         help="seconds a worker may take for one answer: a size's build, check and warm-up, or one "
                              "timed round (default 3600, --quick 300)")
+    parser.add_argument("--baseline", nargs="+", default=[], metavar="REV",
+                        help="git revisions whose warp_sim runs beside the working tree's, in the same rounds "
+                             "(each from a temporary git worktree; e.g. 8dcb2b4 HEAD)")
     parser.add_argument("--copy-mb", type=int, default=256, help="size of the bandwidth-floor copy [MiB]")
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results/compare.json"))
     parser.add_argument("--worker", nargs=2, metavar=("WORKLOAD", "IMPL"), help=argparse.SUPPRESS)
@@ -639,47 +727,20 @@ def main(argv=None) -> None:
 
     started = time.perf_counter()
     rows = []
-    for workload in args.workloads:
-        cfg = SETTINGS[mode][workload]
-        by_key, commands = {}, {}
-        for impl in implementations(workload, device):
-            if args.only and impl["key"] not in args.only and impl["key"] != "warp_sim":
-                continue
-            if impl["peer"] and not peers[impl["peer"]]["installed"]:
-                by_key[impl["key"]] = {n: {"status": "not installed"} for n in cfg["sizes"]}
-            elif impl["na"]:
-                by_key[impl["key"]] = {n: {"status": impl["na"]} for n in cfg["sizes"]}
-            else:
-                by_key[impl["key"]] = None   # its place in the table
-                commands[impl["key"]] = worker_command(workload, impl["key"], args, device)
-        print(f"  {workload}: {', '.join(commands)}, their timed rounds in turn ...", flush=True)
-        by_key.update(rounds.interleave(commands, cfg["sizes"], cfg["repeats"], timeout, report(workload)))
-        labels = {impl["key"]: impl["label"] for impl in implementations(workload, device)}
-        for n in cfg["sizes"]:
-            reference = by_key["warp_sim"][n].get("steps_per_s")
-            size_label = result_size(workload, n) + (f", dt 1/{1 / args.pile_dt:.0f} s"
-                                                     if workload in ("pile", "bigpile") else "")
-            base = {"workload": workload, "size": n, "size_label": size_label, "reference_key": "warp_sim",
-                    "reference_steps_per_s": reference,
-                    "workload_label": {"particles": "particles + ground"}.get(workload, workload)}
-            for key, results in by_key.items():
-                paired = rounds.paired_ratio(results[n].get("seconds"), by_key["warp_sim"][n].get("seconds"))
-                rows.append({**base, "key": key, "label": labels[key], **results[n],
-                             **({"paired_ratio": paired} if paired is not None and key != "warp_sim" else {})})
-                if workload == "particles" and key in ("warp_sim", "warp_sim_1thread"):
-                    # each warp_sim row is followed by the copy floor on as many threads, its share of it
-                    one = key == "warp_sim_1thread" or device.is_cuda or threads == 1
-                    bandwidth = host_bw if key == "warp_sim_1thread" else floor_bw
-                    method = "wp.copy" if device.is_cuda else f"np.copyto, {1 if one else threads} thread" + (
-                        "" if one else "s")
-                    rows.append({**base, "key": "floor", "status": "ok",
-                                 "steps_per_s": bandwidth / (particles.STATE_BYTES * n),
-                                 "share_of": results[n].get("steps_per_s"),
-                                 "label": f"copy floor ({method} {bandwidth / 1e9:.1f} GB/s, "
-                                          f"{particles.STATE_BYTES} B/particle)",
-                                 "check": {"summary": "- (x and v read and written once a step)"}})
+    with contextlib.ExitStack() as checkouts:
+        baselines = {}   # key -> (the revision as given, its root, its commit)
+        for revision in args.baseline:
+            root, commit = checkouts.enter_context(worktree(revision))
+            baselines[BASELINE + revision] = (revision, root, commit)
+            print(f"baseline {revision}: {commit[:12]} checked out in {root}", flush=True)
+        for workload in args.workloads:
+            rows += run_workload(workload, args, device, mode, timeout, peers, baselines,
+                                 (threads, host_bw, floor_bw))
     print()
     print(table(rows))
+    if args.baseline:
+        print()
+        print(baseline_table(rows, list(baselines)))
 
     args.out.parent.mkdir(parents=True, exist_ok=True)
     result = {"device": device.alias, "device_name": name, "cpu_count": os.cpu_count(), "warp_version": wp.__version__,
@@ -688,9 +749,66 @@ def main(argv=None) -> None:
               "budget_s": args.budget or BUDGET[mode], "timeout_s": timeout,
               "cpu_threads": threads, "numpy_copy_bytes_per_s": host_bw, "floor_bytes_per_s": floor_bw,
               "floor_method": "wp.copy" if device.is_cuda else "np.copyto", "max_depth_m": MAX_DEPTH,
+              "git": git_state(), "environment": environment(),
+              "baselines": [{"key": key, "revision": revision, "commit": commit}
+                            for key, (revision, _, commit) in baselines.items()],
               "wall_s": time.perf_counter() - started, "rows": rows}
     args.out.write_text(json.dumps(result, indent=2) + "\n")
     print(f"wrote {args.out}")
+
+
+def run_workload(workload: str, args, device, mode: str, timeout: float, peers: dict, baselines: dict,
+                 floor: tuple) -> list[dict]:
+    """One workload's implementations (the baselines right after warp_sim), their rounds in turn: its rows."""
+    threads, host_bw, floor_bw = floor
+    cfg = SETTINGS[mode][workload]
+    by_key, commands = {}, {}
+    labels = {impl["key"]: impl["label"] for impl in implementations(workload, device)}
+    for impl in implementations(workload, device):
+        if args.only and impl["key"] not in args.only and impl["key"] != "warp_sim":
+            continue
+        if impl["peer"] and not peers[impl["peer"]]["installed"]:
+            by_key[impl["key"]] = {n: {"status": "not installed"} for n in cfg["sizes"]}
+        elif impl["na"]:
+            by_key[impl["key"]] = {n: {"status": impl["na"]} for n in cfg["sizes"]}
+        else:
+            by_key[impl["key"]] = None   # its place in the table
+            commands[impl["key"]] = worker_command(workload, impl["key"], args, device)
+        if impl["key"] == "warp_sim":
+            for key, (revision, root, commit) in baselines.items():
+                by_key[key] = None
+                commands[key] = baseline_command(commands["warp_sim"], root)
+                named = revision if commit.startswith(revision) else f"{revision} ({commit[:7]})"
+                labels[key] = impl["label"].replace("warp_sim", f"warp_sim @ {named}", 1)
+    print(f"  {workload}: {', '.join(commands)}, their timed rounds in turn ...", flush=True)
+    by_key.update(rounds.interleave(commands, cfg["sizes"], cfg["repeats"], timeout, report(workload)))
+    for key, (_, root, _) in baselines.items():
+        by_key[key] = {n: imported_from(result, root) for n, result in by_key[key].items()}
+    rows = []
+    for n in cfg["sizes"]:
+        reference = by_key["warp_sim"][n].get("steps_per_s")
+        size_label = result_size(workload, n) + (f", dt 1/{1 / args.pile_dt:.0f} s"
+                                                 if workload in ("pile", "bigpile") else "")
+        base = {"workload": workload, "size": n, "size_label": size_label, "reference_key": "warp_sim",
+                "reference_steps_per_s": reference,
+                "workload_label": {"particles": "particles + ground"}.get(workload, workload)}
+        for key, results in by_key.items():
+            paired = rounds.paired_ratio(results[n].get("seconds"), by_key["warp_sim"][n].get("seconds"))
+            rows.append({**base, "key": key, "label": labels[key], **results[n],
+                         **({"paired_ratio": paired} if paired is not None and key != "warp_sim" else {})})
+            if workload == "particles" and key in ("warp_sim", "warp_sim_1thread"):
+                # each warp_sim row is followed by the copy floor on as many threads, its share of it
+                one = key == "warp_sim_1thread" or device.is_cuda or threads == 1
+                bandwidth = host_bw if key == "warp_sim_1thread" else floor_bw
+                method = "wp.copy" if device.is_cuda else f"np.copyto, {1 if one else threads} thread" + (
+                    "" if one else "s")
+                rows.append({**base, "key": "floor", "status": "ok",
+                             "steps_per_s": bandwidth / (particles.STATE_BYTES * n),
+                             "share_of": results[n].get("steps_per_s"),
+                             "label": f"copy floor ({method} {bandwidth / 1e9:.1f} GB/s, "
+                                      f"{particles.STATE_BYTES} B/particle)",
+                             "check": {"summary": "- (x and v read and written once a step)"}})
+    return rows
 
 
 if __name__ == "__main__":

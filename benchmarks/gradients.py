@@ -62,9 +62,10 @@ def drape(traj):
     return out
 
 
-def cloth(resolution: int) -> ws.Scene:
-    """The hanging cloth: ``resolution`` x ``resolution`` vertices, float64."""
-    scene = ws.Scene(precision="float64", drag=5e-4)
+def cloth(resolution: int, drag: float = 5e-4, precision: str = "float64") -> ws.Scene:
+    """The hanging cloth: ``resolution`` x ``resolution`` vertices, air drag ``drag`` [N s/m] (float64 unless
+    ``precision``)."""
+    scene = ws.Scene(precision=precision, drag=drag)
     scene.add_cloth_grid(resolution=(resolution, resolution), size=(1.0, 1.0), mass=2.0, stiffness=(20.0, 20.0, 2.0),
                          damping=(1e-3, 1e-3, 1e-4), pinned="top_corners")
     return scene
@@ -97,11 +98,21 @@ def measured(run) -> dict:
             "result": result}
 
 
-def forward(scene: ws.Scene, seconds: float) -> float:
-    """A plain Simulator's run of round(seconds * fps) frames; returns the drape at the end [m]."""
-    sim = ws.Simulator(scene, "symplectic_euler", collisions=False)
+def step_frames(sim: ws.Simulator, seconds: float) -> ws.Simulator:
+    """sim run for round(seconds * fps) frames of SUBSTEPS steps, as ws.gradient runs them; returns it."""
     for _ in sim.frames(seconds + 1.0 / FPS, FPS, SUBSTEPS, arrays=False):   # frames 0 to round(seconds * fps)
         pass
+    return sim
+
+
+def run_frames(scene: ws.Scene, seconds: float, integrator: str = "symplectic_euler", **options) -> ws.Simulator:
+    """A plain Simulator (``options``: e.g. collisions=False) made and run by step_frames; returns it."""
+    return step_frames(ws.Simulator(scene, integrator, **options), seconds)
+
+
+def forward(scene: ws.Scene, seconds: float) -> float:
+    """A plain Simulator's run of round(seconds * fps) frames; returns the drape at the end [m]."""
+    sim = run_frames(scene, seconds, collisions=False)
     return float(sim.state.particle_x.numpy()[:, 1].mean())
 
 
