@@ -19,6 +19,7 @@ from .contacts import (
     colliding,
     contact_impact_levers,
     contact_row,
+    impact_normal,
     impact_target,
     write_row,
 )
@@ -69,8 +70,9 @@ def taped_rows(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), row_ids:
                rows: Any, bounces: wp.array(dtype=wp.int32)):
     """contacts.prepare_contacts with each contact's normal and points from the start poses: point1 body i's
     sample the narrow phase found (body_point), point2 its foot on the plane, or the other sphere's centre (a
-    body's or a static one's) with n along the centres; its restitution and friction pair_value's, from the
-    bodies' own ``restitution`` and ``friction`` (the Model's, so that a gradient reaches them) and the planes'.
+    body's or a static one's) with n along the centres at the time of impact (contacts.impact_normal); its
+    restitution and friction pair_value's, from the bodies' own ``restitution`` and ``friction`` (the Model's, so
+    that a gradient reaches them) and the planes'.
     held_time: empty, or the times of impact [s] per row to use instead (held: the naive gradient); bounces: per
     row, 1 where the contact counts toward its bodies' impact time (contacts.bouncing)."""
     c = wp.tid()
@@ -95,6 +97,7 @@ def taped_rows(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), row_ids:
         p2 = p1 - n * (wp.dot(n, p1) - planes.offset[-1 - j])
     round1 = -type(h)(contacts.radius1[c])
     round2 = type(h)(contacts.radius2[c])
+    n = impact_normal(geoms, i, j, dynamic, n, p1, p2, round1, round2, start, end)   # two spheres': at the impact
     a1, a2, t, vn_start, an, closing = contact_row(i, j, dynamic, n, p1, p2, round1, round2, start, end, mass, h,
                                                    slop)
     r = slot[c]

@@ -13,6 +13,7 @@ from typing import Any
 import warp as wp
 
 from .detection import ContactBuffer, Geoms, beyond, is_body
+from .geometry import SPHERE
 from .impulses import (
     impulse_update,
     lever,
@@ -109,6 +110,38 @@ def contact_row(i: int, j: int, dynamic: bool, n: Any, p1: Any, p2: Any, round1:
 
 
 @wp.func
+def moved_point(start: Any, end: Any, i: int, p: Any):
+    """Where body i's point at p [m] at the start of the step is at the end of it."""
+    return end.x[i] + wp.quat_rotate(wp.normalize(end.q[i]), wp.quat_rotate_inv(wp.normalize(start.q[i]),
+                                                                               p - start.x[i]))
+
+
+@wp.func
+def impact_normal(geoms: Geoms, i: int, j: int, dynamic: bool, n: Any, p1: Any, p2: Any, round1: Any, round2: Any,
+                  start: Any, end: Any):
+    """A contact's normal for contact_row(): between two spheres (centres p1, p2 [m] at the start of the step, radii
+    -round1 and round2) the line of centres at their time of impact, each centre on the straight line from its start
+    to where the end poses put it: d0 + w s (d0 = p1 - p2, w its change over the step) at the earliest s in [0, 1]
+    where |d0 + w s| = r1 + r2. Spheres that overlap at the start or do not meet in the step, other pairs: n."""
+    out = n
+    if j >= 0:
+        if geoms.kind[i] == SPHERE and geoms.kind[j] == SPHERE:
+            c2 = p2
+            if dynamic:
+                c2 = moved_point(start, end, j, p2)
+            d0 = p1 - p2
+            w = moved_point(start, end, i, p1) - c2 - d0
+            b = wp.dot(d0, w)
+            c = wp.dot(d0, d0) - (round2 - round1) * (round2 - round1)
+            disc = b * b - wp.dot(w, w) * c
+            if c > type(b)(0.0) and b < type(b)(0.0) and disc >= type(b)(0.0):
+                s = c / (wp.sqrt(disc) - b)   # the smaller root, (-b - sqrt(disc)) / |w|^2, without cancellation
+                if s <= type(round2)(1.0):
+                    out = wp.normalize(d0 + w * s)
+    return out
+
+
+@wp.func
 def write_row(rows: Any, r: int, a1: Any, a2: Any, round1: Any, round2: Any, n: Any, t: Any, closing: Any, an: Any,
               h: Any, e: Any, mu: Any):
     """Row r of the ContactRows from contact_row()'s values and the materials e, mu; no impulses yet."""
@@ -138,7 +171,8 @@ def bouncing(t: Any, vn_start: Any, an: Any, bounce_speed: Any):
 def prepare_contacts(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), row_ids: wp.array(dtype=wp.vec2i),
                      geoms: Geoms, start: Any, end: Any, mass: Any, h: Any, bounce_speed: Any, slop: Any, rows: Any,
                      work: Any, impacts: wp.array(dtype=wp.int32)):
-    """Per contact: anchors in the body frames, the time of impact within the step (contact_row), materials.
+    """Per contact: anchors in the body frames, the time of impact within the step (contact_row) along the
+    normal (impact_normal: between two spheres, the line of centres at the impact), materials.
 
     after_impact: the normal velocity the forces add after the impact, a_n (h - t) [m/s].
     start, end: the bodies at the start and end of the step (Bodies); mass: BodyMass; rows: the contacts'
@@ -153,12 +187,13 @@ def prepare_contacts(contacts: ContactBuffer, slot: wp.array(dtype=wp.int32), ro
     pair = contacts.ids[c]
     i = pair[0]
     j = pair[1]
-    n = type(start.P[0])(contacts.normal[c])
     round1 = -type(h)(contacts.radius1[c])
     round2 = type(h)(contacts.radius2[c])
     dynamic = is_body(j, geoms.body_count)
-    a1, a2, t, vn_start, an, closing = contact_row(i, j, dynamic, n, type(n)(contacts.point1[c]),
-                                                   type(n)(contacts.point2[c]), round1, round2, start, end, mass, h,
+    p1 = type(start.P[0])(contacts.point1[c])
+    p2 = type(p1)(contacts.point2[c])
+    n = impact_normal(geoms, i, j, dynamic, type(p1)(contacts.normal[c]), p1, p2, round1, round2, start, end)
+    a1, a2, t, vn_start, an, closing = contact_row(i, j, dynamic, n, p1, p2, round1, round2, start, end, mass, h,
                                                    slop)
     e, mu = pair_material(geoms, i, j)
     r = slot[c]
@@ -483,8 +518,6 @@ def recall_impulses(geoms: Geoms, ids: wp.array(dtype=wp.vec2i), count: wp.array
                 rows.impulse_t[c] = table.t[slot] - n * wp.dot(n, table.t[slot])
                 break
         slot = (slot + 1) & mask
-
-
 
 
 @wp.kernel
