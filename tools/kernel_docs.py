@@ -46,7 +46,8 @@ DOCS = ROOT / "docs" / "kernels.md"
 TOPICS = ("integrate", "particles", "springs", "fields", "cloth", "rigid", "planes", "penalty", "guards")
 #: the private modules (``__all__ = []``): for the simulator's own use
 PRIVATE = ("contacts", "joints", "detection", "manifolds", "emitters", "implicit", "particle_shapes", "geometry",
-           "precisions", "fused", "impulses", "contact_adjoint")
+           "precisions", "fused", "impulses", "contact_adjoint", "joint_frames",
+           "joint_adjoint")
 #: public modules without kernels: ``blocks``, the argument structs (its ``__all__``: of, fill)
 HELPERS = ("blocks",)
 

@@ -2,7 +2,8 @@
 
 A differentiable Simulator runs only parts whose every launch a wp.Tape can take back: the five explicit
 solvers and implicit Euler (the adjoint of its linear solve, by the same CG), particles and rigid bodies
-(gravity, drag, wind, held and per-frame forces and torques), springs, the orientations' renormalisation and
+(gravity, drag, wind, held and per-frame forces and torques), springs, joints that cannot break
+(``passes.joint_adjoint``), the orientations' renormalisation and
 the particles' impacts on planes (at their time of impact, which the gradient goes through) and the body contacts
 of a scene ``passes.contact_adjoint.refusal`` covers (spheres, and bodies on planes, with friction and
 restitution). Every other part an assembly can hold is refused before anything compiles or runs, with what it
@@ -13,7 +14,7 @@ from __future__ import annotations
 from . import forces, passes
 from .assembly import Assembly
 from .core.components import Particles, RigidBodies
-from .passes import contact_adjoint
+from .passes import contact_adjoint, joint_adjoint
 from .solvers import RK45
 
 #: the components, force terms and passes with adjoints (a solver says so itself: ``Integrator.differentiable``)
@@ -23,7 +24,7 @@ FIXED_STEP = "use one of euler, midpoint, rk4, symplectic_euler, verlet, implici
 #: each part without an adjoint: what it is, and why
 REFUSED = {
     passes.BodyContacts: ("body contacts", "only those between spheres and of any body on planes or static spheres "
-                          "have one, without joints (pass collisions=False to leave them out)"),
+                          "have one (pass collisions=False to leave them out)"),
     passes.ParticleShapeContacts: ("particle contacts with bodies and colliders",
                                    "their time-of-impact response is not differentiated (pass collisions=False)"),
     forces.PlanePenalty: ("penalty contacts of particles on planes",
@@ -34,7 +35,7 @@ REFUSED = {
                            "over a run (a 6 x 6 hanging cloth's stiffness gradient reaches 1e32 within 1 s), and "
                            "plain Gauss-Seidel sweeps, whose adjoint stays bounded, stop unconverged at 50 a step "
                            "on a 12 x 12 cloth (make the cloth with max_stretch=None)"),
-    passes.Joints: ("joints", "their constraint impulses and projection are not differentiated"),
+    passes.Joints: ("joints", "only those that cannot break have one"),
     passes.KinematicBodies: ("kinematic bodies", "their tracks reset the state every step, and the contacts they "
                              "drive are not differentiated"),
     passes.EmitterPools: ("emitters", "births and deaths switch particles on and off, which has no derivative"),
@@ -59,10 +60,12 @@ def refusals(parts: Assembly) -> list[tuple[str, str]]:
     found = [] if solver.differentiable else [
         REFUSED.get(type(solver), (f"integrator {type(solver).__name__}", f"it has no taped step ({FIXED_STEP})"))]
     for part in [*parts.dynamics.components, *parts.dynamics.force_terms, *parts.passes]:
-        if type(part) is passes.BodyContacts:   # covered or not by what its scene holds
-            why = contact_adjoint.refusal(part)
+        covers = {passes.BodyContacts: contact_adjoint.refusal, passes.Joints: joint_adjoint.refusal}.get(type(part))
+        if covers is not None:   # covered or not by what its scene holds
+            why = covers(part)
             if why is not None:
-                found.append(("body contacts", f"{why}: {REFUSED[passes.BodyContacts][1]}"))
+                name, scope = REFUSED[type(part)]
+                found.append((name, f"{why}: {scope}"))
             continue
         if not isinstance(part, DIFFERENTIABLE) and REFUSED.get(type(part)) not in found:
             found.append(REFUSED.get(type(part), (type(part).__name__, "it is not known to be differentiable")))

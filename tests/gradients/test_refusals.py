@@ -46,9 +46,9 @@ def cloth(**options) -> ws.Scene:
     return scene
 
 
-def jointed() -> ws.Scene:
+def jointed(**joint) -> ws.Scene:
     scene = two_balls()
-    scene.add_joint("ball", 0, 1, anchor=(0.25, 1.0, 0.0))
+    scene.add_joint("ball", 0, 1, anchor=(0.25, 1.0, 0.0), **joint)
     return scene
 
 
@@ -81,7 +81,8 @@ REFUSED = {
     "strain limiter": (lambda: cloth(max_stretch=0.1), {}, ["the strain limiter", "grows without bound",
                                                             "max_stretch=None"]),
     "aerodynamics": (lambda: cloth(drag=1.0), {}, ["aerodynamic drag and lift"]),
-    "joints": (jointed, {"collisions": False}, ["joints"]),
+    "breakable joints": (lambda: jointed(break_force=10.0), {"collisions": False},
+                         ["joints", "break forces and torques", "cannot break"]),
     "kinematic": (kinematic, {}, ["kinematic bodies"]),
     "emitters": (emitter, {}, ["emitters", "births and deaths"]),
     "fields": (attracted, {}, ["force fields"]),

@@ -29,7 +29,7 @@ PUBLIC = {
     "guards": ["check_finite_and_bounded"],
 }
 PRIVATE = ["contacts", "joints", "detection", "manifolds", "emitters", "implicit", "particle_shapes", "geometry",
-           "precisions", "fused", "impulses", "contact_adjoint"]
+           "precisions", "fused", "impulses", "contact_adjoint", "joint_frames", "joint_adjoint"]
 HELPERS = {"blocks": ["of", "fill"]}   # public modules without kernels
 
 PUBLIC_KERNELS = [(topic, name) for topic, names in PUBLIC.items() for name in names]

@@ -119,6 +119,15 @@ class Pass(Persistent):
     def apply(self, start: State, end: State, t: float, h: float) -> None:
         raise NotImplementedError
 
+    def carried(self) -> list:
+        """In a differentiable run, the arrays with gradients it carries from one step to the next outside the
+        State (a warm start the gradient goes through), which a checkpointed gradient stores per frame and
+        carries the adjoint of (gradients.checkpoints); none by default."""
+        return []
+
+    def carry(self, arrays: list) -> None:
+        """Start the next step from ``arrays`` (as carried() gives them); nothing by default."""
+
 
 class Forces:
     """Force accumulators, allocated only for components some force term writes (else empty arrays).

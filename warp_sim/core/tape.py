@@ -49,6 +49,12 @@ def paused():
             runtime.tape = tape
 
 
+def copies(*arrays) -> list:
+    """A copy of each array, on the tape where one records (its adjoint adds the copy's gradient into the
+    original's): the outputs of an update that writes some elements of its inputs and leaves the rest."""
+    return [wp.clone(array, requires_grad=True) for array in arrays]
+
+
 class TapedPrepared:
     """``Launcher.prepare``'s object for the taped launcher: the same ``set``, ``run`` and ``run_pieces``, each run a
     ``wp.launch`` of the current inputs (nothing replayed)."""

@@ -11,6 +11,10 @@ into the gradients of the model's arrays and the controls on the way; then the t
 frame makes (its steps' ends, the solver's stages) comes from one frame's pool (gradients.pool), reused frame
 after frame, forward and back. Peak memory: the stored states (frames + 1 of them), the gradients of the fields
 the loss reads, and one frame's pool and tape (its states with their gradients, accumulators, copies).
+
+What a pass carries from step to step outside the state on the tape (``Pass.carried``: the joints' impulses,
+which warm-start the next step) is stored at each frame too, a recomputed frame starts from it (``Pass.carry``),
+and its adjoint is carried from frame to frame with the state's.
 """
 from __future__ import annotations
 
@@ -41,6 +45,7 @@ class Checkpoints:
                 self.rest[field.name] = values_of(wp.zeros((frames + 1, field.count), dtype=like.dtype,
                                                            device=sim.device))
         self.times = [0.0] * (frames + 1)
+        self.carried = [[] for _ in range(frames + 1)]   # per frame, copies of the passes' carried arrays
         self.pool = StatePool(sim.dynamics)
         self._start = None   # the state a forward frame starts from (not the pool's: the pool is reused)
 
@@ -58,6 +63,19 @@ class Checkpoints:
         for name, rows in self.rest.items():
             wp.copy(rows[frame], getattr(state, name))
         self.times[frame] = self.sim.time
+        self.carried[frame] = [wp.clone(array, requires_grad=False) for array in self._carried()]
+
+    def _carried(self) -> list:
+        """What the simulator's passes carry to the next step now (Pass.carried), in pass order."""
+        return [array for part in self.sim.passes for array in part.carried()]
+
+    def _carry(self, arrays: list) -> None:
+        """Each pass starts its next step from its share of ``arrays`` (as _carried() lists them)."""
+        for part in self.sim.passes:
+            count = len(part.carried())
+            if count:
+                part.carry(arrays[:count])
+                arrays = arrays[count:]
 
     def _step(self, frame: int) -> None:
         """Frame ``frame`` (1 to frames): the controls of the interval before it held, a step of 1 / fps seconds in
@@ -84,6 +102,7 @@ class Checkpoints:
         for name, rows in self.rest.items():
             wp.copy(getattr(state, name), rows[frame])
         self.sim.state, self.sim.time = state, self.times[frame]
+        self._carry([wp.clone(array, requires_grad=True) for array in self.carried[frame]])
         return state
 
     def backward(self, traj: Trajectory, on_frame=None) -> State:
@@ -92,16 +111,20 @@ class Checkpoints:
         model's arrays and the controls hold theirs. ``on_frame(frame, tape)``, if given, is called after each
         frame's backward, before its tape is dropped (for inspection)."""
         carry = None   # d loss / d (state at the frame's end), from the frames after it
+        carried = []   # d loss / d (what the passes carried at the frame's end), likewise
         for frame in range(self.frames, 0, -1):
             start = self.restore(frame - 1, traj)
+            first = self._carried()
             with wp.Tape() as tape:
                 watched = traj.watch(start, 0) if frame == 1 else []
                 self._step(frame)
                 end = self.sim.state
                 watched += traj.watch(end, frame)
             traj.seed(watched)
-            tape.backward(grads=None if carry is None else {end.y: carry})
-            carry = start.y.grad
+            grads = {} if carry is None else {end.y: carry}
+            grads.update(zip(self._carried(), carried))
+            tape.backward(grads=grads or None)
+            carry, carried = start.y.grad, [array.grad for array in first]
             if on_frame is not None:
                 on_frame(frame, tape)
             del tape, end, watched

@@ -26,6 +26,9 @@ Topics:
 - ``manifolds``: contacts grouped by pair, and the pairs coloured for the parallel Gauss-Seidel solve
 - ``particle_shapes``: particles pushed by bodies and static colliders
 - ``joints``: joint rows (points, axes, limits, PD drives, cones, distances), warm start, position projection, breaks
+- ``joint_frames`` (no kernels): a joint's sides, angles, limit and drive rows and pushes on values, which
+  ``joints`` and ``joint_adjoint`` share
+- ``joint_adjoint``: the joint solve as launches a wp.Tape can take back (a differentiable run's)
 - ``precisions`` (no kernels): registers each module's generic kernels at import; declares their overloads
   for the precision in use (a Model calls ``declare``)
 - ``guards``: detection of non-finite or runaway states

@@ -117,8 +117,17 @@ class BodyContacts(Pass):
     @property
     def kernels(self) -> tuple[str, ...]:
         """Its kernel modules: the joints' too where it sweeps them, its taped response's in a differentiable run."""
-        return ("contacts", "detection", "manifolds", "rigid", *(("joints",) if self.joints is not None else ()),
-                *(("contact_adjoint",) if self.model.differentiable else ()))
+        return tuple(dict.fromkeys(("contacts", "detection", "manifolds", "rigid",
+                                    *(self.joints.kernels if self.joints is not None else ()),
+                                    *(("contact_adjoint",) if self.model.differentiable else ()))))
+
+    def carried(self) -> list:
+        """The joints' impulses in a differentiable run (Joints.carried), which it sweeps."""
+        return self.joints.carried() if self.joints is not None else []
+
+    def carry(self, arrays: list) -> None:
+        if self.joints is not None:
+            self.joints.carry(arrays)
 
     def bounce(self, h: float) -> float:
         """The slowest approach [m/s] that bounces in a step of h seconds (``bounce_speed``, by default 2 |g| h)."""

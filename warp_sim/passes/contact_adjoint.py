@@ -33,7 +33,9 @@ limit mu Jn carries mu and Jn into the gradient; where it sticks, the impulse is
 mu does not enter (held: the one-sided derivative of a contact that stays stuck).
 
 Covered (``refusal`` says why not): contacts between spheres, of any body on planes, and of spheres on static
-spheres, with restitution and friction; no joints inside the pass.
+spheres, with restitution and friction; the joints it sweeps (passes.joint_adjoint's TapedJoints: their warm
+start with the contacts', their velocity sweep between the body-body colours and the static ones of each
+resting sweep, their position sweep likewise, as forward).
 """
 from __future__ import annotations
 
@@ -41,7 +43,7 @@ import numpy as np
 import warp as wp
 
 from ..core.state import State
-from ..core.tape import active_tape, paused
+from ..core.tape import active_tape, copies, paused
 from ..kernels import blocks
 from ..kernels import contact_adjoint as taped
 from ..kernels import contacts as contact_kernels
@@ -52,8 +54,6 @@ NONE = np.iinfo(np.int32).max   # no winner row (kernels.contact_adjoint.taped_i
 
 def refusal(contacts) -> str | None:
     """Why the taped response does not cover the scene of ``contacts`` (a BodyContacts pass), or None where it does."""
-    if contacts.joints is not None:
-        return "joints swept inside the contact solve"
     geoms, bodies = contacts.geometry.geoms, contacts.model.body_count
     kinds = geoms.kind.numpy()
     if (kinds[bodies:] != KINDS["sphere"]).any():
@@ -76,11 +76,6 @@ def _held(block, names: tuple):
     return held
 
 
-def _copies(*arrays) -> list:
-    """A copy of each array, on the tape (its adjoint adds the copy's gradient into the original's)."""
-    return [wp.clone(array, requires_grad=True) for array in arrays]
-
-
 class TapedResponse:
     """The response of a BodyContacts pass (``contacts``) in a differentiable run, on the tape (module docstring;
     ``contacts.hold_impact_time`` holds the times of impact: the naive gradient)."""
@@ -93,9 +88,14 @@ class TapedResponse:
         does, every launch that changes a float on the tape."""
         bc = self.contacts
         with paused():
-            if bc.detection.detect(start, end) == 0:
+            found = bc.detection.detect(start, end)
+        if found == 0:
+            with paused():
                 bc.table.used.zero_()   # nothing to warm-start from next step
-                return
+            if bc.joints is not None:
+                bc.joints.apply(start, end, t, h)   # in a differentiable run, its taped solve
+            return
+        with paused():
             bc._ensure(bc.detection.contacts.capacity)
             bc.manifolds.sort()
             colours, body_colours, _ = bc.manifolds.colour()
@@ -108,13 +108,18 @@ class TapedResponse:
         rows, work = self._prepare(start, pre, h)
         v, w = self._collide(start, pre, rows, work, h, colours)
         collided = self._velocities(work, v, w)
-        v, w, jn, jt = self._rest(pre, rows, collided, colours)
+        joints = bc.joints.taped if bc.joints is not None else None
+        if joints is not None:
+            joints.begin()
+        v, w, jn, jt = self._rest(start, pre, rows, collided, colours, body_colours, joints, h)
         fin = State(end.layout, m.scalar, m.device, requires_grad=True)
         wp.copy(fin.y, pre.y)
         m.launcher.launch_in_place(contact_kernels.finish_response, m.body_count, [
             m.scalar(h), m.scalar(bc.position_response), m.body_mass, collided, self._velocities(work, v, w),
             start.bodies, self._bodies(fin), bc.drift], fin.y)
-        x, q = self._project(fin, rows, colours, body_colours)
+        x, q = self._project(fin, rows, colours, body_colours, joints)
+        if joints is not None:
+            joints.commit()
         for field, value in (("body_x", x), ("body_q", q), ("body_P", fin.body_P), ("body_L", fin.body_L)):
             wp.copy(getattr(end, field), value)
         with paused():   # this step's impulses, for the next step's warm start
@@ -208,7 +213,7 @@ class TapedResponse:
                 jn, jt = _grad_zeros(m, n, T), _grad_zeros(m, n, m.vec3)
                 for _iteration in range(iterations):
                     for slot in range(self.slots):
-                        outputs = _copies(v, w, jn, jt)
+                        outputs = copies(v, w, jn, jt)
                         m.launch(taped.taped_collide, size, [self.manifold_set, colour, slot, *inputs[2:],
                                                              m.body_mass, work.inv_inertia_world, target, v, w, jn,
                                                              jt, *outputs])
@@ -217,8 +222,10 @@ class TapedResponse:
                 break
         return v, w
 
-    def _rest(self, pre: State, rows, collided, colours: list) -> tuple:
-        """Warm start and the resting sweeps from the collided velocities; returns (v, w, Jn, Jt)."""
+    def _rest(self, start: State, pre: State, rows, collided, colours: list, body_colours: int, joints,
+              h: float) -> tuple:
+        """Warm start and the resting sweeps from the collided velocities, the joints' (``joints``: a TapedJoints,
+        or None) between the body-body colours and the static ones of each sweep; returns (v, w, Jn, Jt)."""
         bc = self.contacts
         m, n = bc.model, self.rows_count
         c, manifolds = self.contact_set, self.manifold_set
@@ -228,50 +235,70 @@ class TapedResponse:
                                                    m.body_mass, collided])
         v, w = collided.v, collided.w
         for colour, size in colours:
-            v, w = _copies(v, w)
+            v, w = copies(v, w)
             m.launch(contact_kernels.warm_start_manifolds, size, [
                 manifolds, colour, rows, m.body_mass, self._velocities(collided, v, w), manifolds.row_ids])
+        if joints is not None:
+            v, w = joints.warm_start(start, v, w)
         state = [v, w, rows.impulse_n, rows.impulse_t]
 
         def solve(colour: int, size: int, slot: int, moved: wp.array, _):
-            outputs = _copies(*state)
+            outputs = copies(*state)
             m.launch(taped.taped_solve, size, [manifolds, colour, slot, rows, m.body_mass, collided.inv_inertia_world,
                                                *state, *outputs, moved])
             state[:] = outputs
 
-        self._sweeps([(colours, None)], bc.sweeps[1], bc.iterations[1], solve)
+        def joint_sweep():
+            state[0], state[1] = joints.velocity_sweep(start, collided.inv_inertia_world, state[0], state[1], h)
+
+        groups = [(colours[:body_colours], None), (colours[body_colours:], None)]
+        if joints is None:
+            self._sweeps(groups, bc.sweeps[1], bc.iterations[1], solve)
+        else:
+            self._sweeps(groups, bc.sweeps[1], bc.iterations[1], solve, joint_sweep, joints.joints.velocity_sweeps)
         return tuple(state)
 
-    def _project(self, fin: State, rows, colours: list, body_colours: int) -> tuple:
-        """The position sweeps from the finished state: body-body colours relaxed, static ones in full; returns
-        the positions and orientations."""
+    def _project(self, fin: State, rows, colours: list, body_colours: int, joints) -> tuple:
+        """The position sweeps from the finished state: body-body colours relaxed, the joints' (``joints``, or
+        None), static ones in full; returns the positions and orientations."""
         bc = self.contacts
         m = bc.model
         T = m.scalar
         state = [fin.body_x, fin.body_q]
 
         def push(colour: int, size: int, slot: int, moved: wp.array, relax: float):
-            outputs = _copies(*state)
+            outputs = copies(*state)
             m.launch(taped.taped_project, size, [self.manifold_set, colour, slot, rows, m.body_mass, T(bc.slop),
                                                  T(relax), *state, *outputs, moved])
             state[:] = outputs
 
-        self._sweeps([(colours[:body_colours], bc.relax), (colours[body_colours:], 1.0)], bc.sweeps[2],
-                     bc.iterations[2], push)
+        def joint_sweep():
+            state[0], state[1] = joints.position_sweep(state[0], state[1])
+
+        groups = [(colours[:body_colours], bc.relax), (colours[body_colours:], 1.0)]
+        if joints is None:
+            self._sweeps(groups, bc.sweeps[2], bc.iterations[2], push)
+        else:
+            self._sweeps(groups, bc.sweeps[2], bc.iterations[2], push, joint_sweep, joints.joints.position_sweeps)
         return tuple(state)
 
-    def _sweeps(self, groups: list, sweeps: int, iterations: int, update) -> None:
+    def _sweeps(self, groups: list, sweeps: int, iterations: int, update, joint_sweep=None,
+                joint_sweeps: int = 0) -> None:
         """The Gauss-Seidel sweeps of the resting or the position stage: ``groups``, (colours, a value for
         ``update``) in order, each colour's manifolds iterated ``iterations`` times, update(colour, size, slot,
-        moved, value) launching one taped update of row ``slot`` of the colour's manifolds. They end early after
-        a sweep that changed nothing (``moved``): every later one would change nothing either."""
+        moved, value) launching one taped update of row ``slot`` of the colour's manifolds; joint_sweep(), if
+        given, after the first group (the joints' sweep, as forward: max(sweeps, joint_sweeps) of them). They end
+        early after a sweep that changed nothing (``moved``) once the joints' are done: every later one would
+        change nothing either."""
         m = self.contacts.model
-        for _sweep in range(sweeps):
+        for sweep in range(max(sweeps, joint_sweeps if joint_sweep is not None else 0)):
             moved = m.zeros(1, wp.int32)
-            for colours, value in groups:
+            for number, (colours, value) in enumerate(groups):
                 for colour, size in colours:
                     for _iteration in range(iterations):
                         for slot in range(self.slots):
                             update(colour, size, slot, moved, value)
-            if int(moved.numpy()[0]) == 0:
+                if number == 0 and joint_sweep is not None:
+                    joint_sweep()
+            if int(moved.numpy()[0]) == 0 and (joint_sweep is None or sweep + 1 >= joint_sweeps):
                 break

@@ -32,6 +32,7 @@ from ..kernels import contacts as contact_kernels
 from ..kernels import joints as joint_kernels
 from ..scene.joints import Joint
 from ..util.rotations import quat_to_matrix
+from .joint_adjoint import TapedJoints
 from .strain import colour_springs
 
 _NONE = -1.0   # the kernels' "no limit" for a break force, a cone or a distance
@@ -103,7 +104,6 @@ class Joints(Pass):
     broken: the breaks so far, (scene index, name, time [s]) in the order they happened
     """
 
-    kernels = ("contacts", "joints")
     capturable = True
     persistent = ("state.enabled", "state.lam_lin", "state.lam_ang", "state.lam_drive_lin", "state.lam_drive_ang",
                   "state.lam_cone", "state.lam_dist", "broken")
@@ -154,6 +154,18 @@ class Joints(Pass):
         #: per body, 1 where a joint holds it: it drifts as symplectic Euler does (contacts.finish_response)
         self.drift = wp.array(held, dtype=wp.int32, device=model.device)
         self._time = 0.0
+        self.taped = TapedJoints(self)   # the solve of a differentiable run
+
+    @property
+    def kernels(self) -> tuple[str, ...]:
+        """Its kernel modules: its taped solve's too in a differentiable run."""
+        return ("contacts", "joints", *(("joint_adjoint",) if self.model.differentiable else ()))
+
+    def carried(self) -> list:
+        return self.taped.carried() if self.model.differentiable else []
+
+    def carry(self, arrays: list) -> None:
+        self.taped.carry(arrays)
 
     @property
     def count(self) -> int:
@@ -211,6 +223,9 @@ class Joints(Pass):
     # the pass on its own (a scene without body contacts) ----------------------------------------------------
     def apply(self, start: State, end: State, t: float, h: float) -> None:
         m = self.model
+        if m.differentiable:
+            self.taped.apply(start, end, t, h)
+            return
         mass, work = m.body_mass, self.work
         m.launch(contact_kernels.load_velocities, m.body_count, [end.bodies, mass, work])
         wp.copy(self.start_velocities.v, work.v)
