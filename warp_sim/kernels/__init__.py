@@ -39,10 +39,11 @@ Topics:
 #: Simulator compiles a simulation's modules the longest first, so that no core is left alone with a long one at
 #: the end (sizes of the Python sources mislead: particle_shapes is small and compiles the shapes' distances).
 COMPILE_SECONDS = {
-    "joints": 4.53, "contact_adjoint": 4.16, "detection": 3.64, "contacts": 3.27, "particle_shapes": 2.56,
-    "fields": 1.27, "emitters": 0.98, "rigid": 0.83, "planes": 0.71, "manifolds": 0.64, "fused": 0.52,
-    "integrate": 0.51, "implicit": 0.48, "penalty": 0.47, "cloth": 0.36, "guards": 0.26, "springs": 0.22,
-    "particles": 0.13,
+    "joint_adjoint": 6.44, "joints": 4.53, "contact_adjoint": 4.16, "detection": 3.64, "contacts": 3.27,
+    "particle_shapes": 2.56, "fields": 1.27, "emitters": 0.98, "rigid": 0.83, "planes": 0.71, "manifolds": 0.64,
+    "fused": 0.52, "integrate": 0.51, "implicit": 0.48, "penalty": 0.47, "cloth": 0.36, "guards": 0.26,
+    "springs": 0.22, "particles": 0.13,
 }
-#: contact_adjoint is built only with its adjoints (a differentiable run: compiling.ADJOINT_FACTOR times its entry):
-#: 9.56 s cold with them, 2.31 s without, float64, one core of a shared 2-core machine (a single cold compile)
+#: contact_adjoint and joint_adjoint are built only with their adjoints (a differentiable run: compiling.ADJOINT_FACTOR
+#: times the entry): 9.56 s and 14.81 s cold with them, 2.31 s and 2.76 s without, float64, one core of a shared
+#: 2-core machine (a single cold compile each)
