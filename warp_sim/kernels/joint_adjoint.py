@@ -13,7 +13,7 @@ from typing import Any
 
 import warp as wp
 
-from .joint_frames import load_poses, load_sides, side_mass, store_sides
+from .joint_frames import load_poses, load_sides, side_mass, store_sides, world_masses
 from .joints import position_rows, velocity_rows, warm_start_rows
 from .precisions import register
 
@@ -53,13 +53,7 @@ def taped_solve(joints: Any, first: int, h: Any, beta: Any, start: Any, mass: An
         return
     p = joints.ids[j][0]
     c = joints.ids[j][1]
-    imc = mass.inv_mass[c]
-    Ic = inv_inertia_world[c]
-    imp = imc * type(h)(0.0)
-    Ip = Ic * type(h)(0.0)
-    if p >= 0:
-        imp = mass.inv_mass[p]
-        Ip = inv_inertia_world[p]
+    imp, Ip, imc, Ic = world_masses(mass.inv_mass, inv_inertia_world, p, c)
     vp, wq, vc, wc = load_sides(v_in, w_in, p, c)
     vp, wq, vc, wc, lin, ang, dlin, dang, cone, dist = velocity_rows(
         joints, j, h, beta, start, imp, Ip, imc, Ic, vp, wq, vc, wc, joints.lam_lin[j], joints.lam_ang[j],

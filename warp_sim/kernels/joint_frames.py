@@ -102,6 +102,20 @@ def held_spin(held: int, K_lin_inv: Any, imp: Any, Ip: Any, imc: Any, Ic: Any, r
 
 
 @wp.func
+def world_masses(inv_mass: wp.array(dtype=Any), inv_inertia_world: wp.array(dtype=Any), p: int, c: int):
+    """(1/m [1/kg], I^-1 in the world [1/(kg m^2)]) of a joint's parent, then its child, from the bodies' inverse
+    masses and world inverse inertias; zeros for the world's (p < 0)."""
+    imc = inv_mass[c]
+    Ic = inv_inertia_world[c]
+    imp = imc * type(imc)(0.0)
+    Ip = Ic * type(imc)(0.0)
+    if p >= 0:
+        imp = inv_mass[p]
+        Ip = inv_inertia_world[p]
+    return imp, Ip, imc, Ic
+
+
+@wp.func
 def load_sides(a: wp.array(dtype=Any), b: wp.array(dtype=Any), p: int, c: int):
     """(a[p], b[p], a[c], b[c]) of a joint's parent and child; zeros for the world's (p < 0)."""
     ac = a[c]

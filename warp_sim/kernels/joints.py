@@ -54,6 +54,7 @@ from .joint_frames import (
     twist,
     unit_axis,
     with_component,
+    world_masses,
 )
 from .precisions import register
 
@@ -344,13 +345,7 @@ def solve_joints(joints: Any, first: int, iterations: int, sweep: int, h: Any, b
         return
     p = joints.ids[j][0]
     c = joints.ids[j][1]
-    imc = mass.inv_mass[c]
-    Ic = work.inv_inertia_world[c]
-    imp = imc * type(h)(0.0)
-    Ip = Ic * type(h)(0.0)
-    if p >= 0:
-        imp = mass.inv_mass[p]
-        Ip = work.inv_inertia_world[p]
+    imp, Ip, imc, Ic = world_masses(mass.inv_mass, work.inv_inertia_world, p, c)
     vp, wq, vc, wc = load_sides(work.v, work.w, p, c)
     lin = joints.lam_lin[j]
     ang = joints.lam_ang[j]
